@@ -1,0 +1,59 @@
+"""evomesh engine: pure numerics for meshing a planar region and smoothing the mesh.
+
+Arrays in, frozen dataclasses out; no web, storage or logging configuration here.
+
+>>> import numpy as np
+>>> import engine
+>>> region = engine.make_region([([[0, 0], [2, 0], [2, 1], [0, 1]], [])])
+>>> smoothing = engine.SmoothingParams("none")
+>>> params = engine.PipelineParams(engine.SizingParams(size=0.5), smoothing=smoothing)
+>>> result = engine.mesh_then_smooth(region, params, np.random.default_rng(7))
+>>> result.smoothed.summary["inverted"]
+0
+"""
+
+from __future__ import annotations
+
+from .boundary import PolygonPart, Region, make_region
+from .errors import Cancelled, EngineError, InvalidBoundary, InvalidMesh, MeshingError
+from .fitness import FITNESS, node_fitness
+from .mesh import Mesh, validate_mesh
+from .params import PipelineParams, SizingParams, SmoothingParams
+from .pipeline import assess_mesh, mesh_region, mesh_then_smooth, smooth_mesh, warmup
+from .quality import METRICS, TriangleQuality, summarize, triangle_quality
+from .result import ProgressFn, Result, SmoothOutcome, Snapshot, StopFn, SweepStats
+from .smoothing import SMOOTHERS
+
+__all__ = [
+    "FITNESS",
+    "METRICS",
+    "SMOOTHERS",
+    "Cancelled",
+    "EngineError",
+    "InvalidBoundary",
+    "InvalidMesh",
+    "Mesh",
+    "MeshingError",
+    "PipelineParams",
+    "PolygonPart",
+    "ProgressFn",
+    "Region",
+    "Result",
+    "SizingParams",
+    "SmoothOutcome",
+    "SmoothingParams",
+    "Snapshot",
+    "StopFn",
+    "SweepStats",
+    "TriangleQuality",
+    "assess_mesh",
+    "make_region",
+    "mesh_region",
+    "mesh_then_smooth",
+    "node_fitness",
+    "smooth_mesh",
+    "summarize",
+    "triangle_quality",
+    "validate_mesh",
+    "warmup",
+]

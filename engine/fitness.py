@@ -1,0 +1,104 @@
+"""Per-node fitness: how good the star of triangles around a node is, in [0, 1].
+
+Definitions (a node's *star* is the set of triangles that use it):
+
+- ``angle``: for each triangle of the star, ``1 - sum_k (theta_k - 60)^2 / 21600`` with the three
+  interior angles in degrees (21600 = the largest possible sum, reached by a flat 0/0/180
+  triangle); the node's term is the mean over the star. 1 means all equilateral.
+- ``aspect``: mean over the star of the shape quality ``4*sqrt(3)*A / (l1^2 + l2^2 + l3^2)``.
+- ``combined``: ``(alpha * angle + beta * aspect) / (alpha + beta)`` (the paper's 0.8 / 0.2).
+- ``worst``: the smallest shape quality in the star.
+
+A star with an inverted or degenerate triangle has fitness 0.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .mesh import Mesh
+from .quality import corner_angles, shape_quality
+
+__all__ = ["FITNESS", "node_fitness", "triangle_scores"]
+
+FloatArray = NDArray[np.float64]
+_MAX_ANGLE_ERROR = 21600.0  # (0-60)^2 + (0-60)^2 + (180-60)^2
+
+
+def triangle_scores(mesh: Mesh) -> tuple[FloatArray, FloatArray]:
+    """Per-triangle angle score and shape quality (both 0 for inverted triangles)."""
+    p, t = mesh.points, mesh.triangles
+    q = shape_quality(p, t)
+    err = ((corner_angles(p, t) - 60.0) ** 2).sum(axis=1)
+    angle = np.where(q > 0, 1.0 - err / _MAX_ANGLE_ERROR, 0.0)
+    return angle, np.maximum(q, 0.0)
+
+
+def _star_mean(mesh: Mesh, per_triangle: FloatArray) -> FloatArray:
+    n = mesh.n_points
+    total = np.zeros(n)
+    count = np.zeros(n)
+    for k in range(3):
+        np.add.at(total, mesh.triangles[:, k], per_triangle)
+        np.add.at(count, mesh.triangles[:, k], 1.0)
+    return np.where(count > 0, total / np.maximum(count, 1.0), 0.0)
+
+
+def _star_min(mesh: Mesh, per_triangle: FloatArray) -> FloatArray:
+    out = np.full(mesh.n_points, np.inf)
+    for k in range(3):
+        np.minimum.at(out, mesh.triangles[:, k], per_triangle)
+    return np.where(np.isfinite(out), out, 0.0)
+
+
+def _inverted_stars(mesh: Mesh, q: FloatArray) -> NDArray[np.bool_]:
+    bad = np.zeros(mesh.n_points, dtype=bool)
+    bad[mesh.triangles[q <= 0].ravel()] = True
+    return bad
+
+
+def angle_fitness(mesh: Mesh, alpha: float = 0.8, beta: float = 0.2) -> FloatArray:
+    angle, q = triangle_scores(mesh)
+    return np.where(_inverted_stars(mesh, q), 0.0, _star_mean(mesh, angle))
+
+
+def aspect_fitness(mesh: Mesh, alpha: float = 0.8, beta: float = 0.2) -> FloatArray:
+    _, q = triangle_scores(mesh)
+    return np.where(_inverted_stars(mesh, q), 0.0, _star_mean(mesh, q))
+
+
+def combined_fitness(mesh: Mesh, alpha: float = 0.8, beta: float = 0.2) -> FloatArray:
+    angle, q = triangle_scores(mesh)
+    value = (alpha * _star_mean(mesh, angle) + beta * _star_mean(mesh, q)) / (alpha + beta)
+    return np.where(_inverted_stars(mesh, q), 0.0, value)
+
+
+def worst_fitness(mesh: Mesh, alpha: float = 0.8, beta: float = 0.2) -> FloatArray:
+    _, q = triangle_scores(mesh)
+    return np.where(_inverted_stars(mesh, q), 0.0, _star_min(mesh, q))
+
+
+FitnessFn = Callable[[Mesh, float, float], FloatArray]
+
+#: Node fitness functions by name: ``fn(mesh, alpha, beta) -> (n,)``.
+FITNESS: dict[str, FitnessFn] = {
+    "angle": angle_fitness,
+    "aspect": aspect_fitness,
+    "combined": combined_fitness,
+    "worst": worst_fitness,
+}
+
+
+def node_fitness(
+    mesh: Mesh, name: str = "combined", alpha: float = 0.8, beta: float = 0.2
+) -> FloatArray:
+    """Fitness of every node of ``mesh`` by the named function.
+
+    >>> eq = np.array([[0.0, 0.0], [1.0, 0.0], [0.5, np.sqrt(3) / 2]])
+    >>> node_fitness(Mesh(eq, np.array([[0, 1, 2]]))).round(6).tolist()
+    [1.0, 1.0, 1.0]
+    """
+    return FITNESS[name](mesh, alpha, beta)

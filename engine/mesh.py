@@ -1,0 +1,192 @@
+"""The triangle mesh: a frozen pair of arrays, its edges and its boundary, and input checks."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .errors import InvalidMesh
+
+__all__ = ["Mesh", "edge_table", "triangle_areas", "validate_mesh"]
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+BoolArray = NDArray[np.bool_]
+
+
+def triangle_areas(points: FloatArray, triangles: IntArray) -> FloatArray:
+    """Signed areas of ``triangles`` (positive when counter-clockwise).
+
+    >>> pts = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    >>> float(triangle_areas(pts, np.array([[0, 1, 2]]))[0])
+    0.5
+    """
+    a, b, c = (points[triangles[:, k]] for k in range(3))
+    return 0.5 * (
+        (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    )
+
+
+def edge_table(triangles: IntArray) -> tuple[IntArray, IntArray, IntArray]:
+    """Undirected edges of ``triangles``.
+
+    Returns ``(edges, count, edge_of)``: ``edges`` (e, 2) sorted vertex pairs, ``count`` (e,) the
+    number of triangles holding each edge, ``edge_of`` (m, 3) the edge index of the side opposite
+    each corner (side k joins corners k+1 and k+2).
+    """
+    m = len(triangles)
+    sides = np.stack(
+        [triangles[:, [1, 2]], triangles[:, [2, 0]], triangles[:, [0, 1]]], axis=1
+    ).reshape(-1, 2)
+    key = np.sort(sides, axis=1)
+    edges, inverse, count = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    return edges.astype(np.int64), count.astype(np.int64), inverse.reshape(m, 3).astype(np.int64)
+
+
+@dataclass(frozen=True)
+class Mesh:
+    """A planar triangle mesh.
+
+    >>> m = Mesh(np.array([[0.0, 0], [1, 0], [0, 1]]), np.array([[0, 1, 2]]))
+    >>> m.boundary_nodes.tolist()
+    [True, True, True]
+    """
+
+    points: FloatArray  #: (n, 2) vertex coordinates
+    triangles: IntArray  #: (m, 3) vertex indices, counter-clockwise, 0-based
+
+    @property
+    def n_points(self) -> int:
+        return int(self.points.shape[0])
+
+    @property
+    def n_triangles(self) -> int:
+        return int(self.triangles.shape[0])
+
+    @cached_property
+    def areas(self) -> FloatArray:
+        """Signed triangle areas."""
+        return triangle_areas(self.points, self.triangles)
+
+    @cached_property
+    def boundary_edges(self) -> IntArray:
+        """Directed boundary edges (e, 2), oriented with the mesh on their left."""
+        sides = np.stack(
+            [self.triangles[:, [0, 1]], self.triangles[:, [1, 2]], self.triangles[:, [2, 0]]],
+            axis=1,
+        ).reshape(-1, 2)
+        key = np.sort(sides, axis=1)
+        _, inverse, count = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+        return sides[count[inverse.ravel()] == 1]
+
+    @cached_property
+    def boundary_nodes(self) -> BoolArray:
+        """True for vertices on the boundary, and for vertices used by no triangle."""
+        mask = np.ones(self.n_points, dtype=bool)
+        mask[self.triangles.ravel()] = False
+        mask[self.boundary_edges.ravel()] = True
+        return mask
+
+    def with_points(self, points: FloatArray) -> Mesh:
+        """The same connectivity with moved vertices."""
+        return Mesh(points, self.triangles)
+
+
+def _whole_numbers(values: NDArray[np.generic]) -> bool:
+    try:
+        as_float = values.astype(np.float64)
+    except (TypeError, ValueError):
+        return False
+    return bool(np.all(np.isfinite(as_float)) and np.all(as_float % 1 == 0))
+
+
+def validate_mesh(points: ArrayLike, triangles: ArrayLike, *, area_tol: float = 0.0) -> Mesh:
+    """Check an input mesh and return it as a :class:`Mesh`.
+
+    Raises :class:`InvalidMesh` naming the first offending element when the arrays have the wrong
+    shape, hold NaN/inf, index out of range, repeat a vertex in a triangle, hold an inverted or
+    degenerate triangle, share an edge between more than two triangles (or two with the same
+    orientation), or fold over an interior vertex.
+
+    >>> validate_mesh([[0, 0], [1, 0], [0, 1]], [[0, 2, 1]])
+    Traceback (most recent call last):
+    ...
+    engine.errors.InvalidMesh: triangle 0 is inverted or degenerate (signed area -0.5)
+    """
+    try:
+        pts = np.asarray(points, dtype=np.float64)
+        tri_in = np.asarray(triangles)
+    except (TypeError, ValueError) as exc:
+        raise InvalidMesh(f"points and triangles must be numeric arrays: {exc}") from None
+    if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) < 3:
+        raise InvalidMesh(
+            f"points must be a list of at least 3 [x, y] pairs, got shape {pts.shape}"
+        )
+    if tri_in.ndim != 2 or tri_in.shape[1] != 3 or len(tri_in) < 1:
+        raise InvalidMesh(
+            f"triangles must be a list of [i, j, k] triples, got shape {tri_in.shape}"
+        )
+    bad = np.flatnonzero(~np.isfinite(pts).all(axis=1))
+    if bad.size:
+        raise InvalidMesh(f"point {bad[0]} has a non-finite coordinate", point=int(bad[0]))
+    if not np.issubdtype(tri_in.dtype, np.integer) and not _whole_numbers(tri_in):
+        raise InvalidMesh("triangle indices must be integers")
+    tri = tri_in.astype(np.int64)
+    out = np.flatnonzero(((tri < 0) | (tri >= len(pts))).any(axis=1))
+    if out.size:
+        raise InvalidMesh(
+            f"triangle {out[0]} refers to a point outside 0..{len(pts) - 1}", triangle=int(out[0])
+        )
+    rep = np.flatnonzero(
+        (tri[:, 0] == tri[:, 1]) | (tri[:, 1] == tri[:, 2]) | (tri[:, 0] == tri[:, 2])
+    )
+    if rep.size:
+        raise InvalidMesh(f"triangle {rep[0]} repeats a vertex", triangle=int(rep[0]))
+    areas = triangle_areas(pts, tri)
+    scale = float(np.ptp(pts, axis=0).max()) or 1.0
+    flat = np.flatnonzero(areas <= max(area_tol, 1e-14 * scale * scale))
+    if flat.size:
+        t = int(flat[0])
+        raise InvalidMesh(
+            f"triangle {t} is inverted or degenerate (signed area {areas[t]:.3g})", triangle=t
+        )
+    edges, count, edge_of = edge_table(tri)
+    over = np.flatnonzero(count > 2)
+    if over.size:
+        e = edges[over[0]]
+        t = int(np.flatnonzero((edge_of == over[0]).any(axis=1))[0])
+        raise InvalidMesh(
+            f"edge ({e[0]}, {e[1]}) is shared by more than two triangles (non-manifold)",
+            triangle=t,
+        )
+    # Two triangles sharing an edge must traverse it in opposite directions.
+    directed = np.stack([tri[:, [1, 2]], tri[:, [2, 0]], tri[:, [0, 1]]], axis=1).reshape(-1, 2)
+    _, dcount = np.unique(directed, axis=0, return_counts=True)
+    if np.any(dcount > 1):
+        raise InvalidMesh("two triangles traverse the same edge in the same direction")
+    mesh = Mesh(pts, tri)
+    _check_no_fold(mesh)
+    return mesh
+
+
+def _check_no_fold(mesh: Mesh) -> None:
+    """Interior vertices must see exactly one full turn of triangle corners (no overlap)."""
+    p, t = mesh.points, mesh.triangles
+    angle_sum = np.zeros(mesh.n_points)
+    for k in range(3):
+        a, b, c = p[t[:, k]], p[t[:, (k + 1) % 3]], p[t[:, (k + 2) % 3]]
+        u, v = b - a, c - a
+        ang = np.arctan2(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0], (u * v).sum(axis=1))
+        np.add.at(angle_sum, t[:, k], ang)
+    interior = ~mesh.boundary_nodes
+    folded = np.flatnonzero(interior & (np.abs(angle_sum - 2 * np.pi) > 1e-6))
+    if folded.size:
+        node = int(folded[0])
+        raise InvalidMesh(
+            f"the triangles around point {node} overlap (corner angles sum to "
+            f"{np.degrees(angle_sum[node]):.1f} degrees, not 360)",
+            point=node,
+        )

@@ -1,0 +1,70 @@
+"""Parameters of the pipeline stages, as frozen dataclasses with the documented defaults."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+__all__ = ["PipelineParams", "SizingParams", "SmoothingParams"]
+
+
+@dataclass(frozen=True)
+class SizingParams:
+    """Target edge length and its grading.
+
+    >>> SizingParams(size=0.1).growth
+    1.2
+    """
+
+    size: float  #: target edge length in the interior
+    growth: float = 1.2  #: largest size ratio between neighbouring elements
+    size_min: float | None = None  #: lower clamp of the local size
+    size_max: float | None = None  #: upper clamp of the local size
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.size) and self.size > 0):
+            raise ValueError(f"size must be a positive number, got {self.size}")
+        if not (math.isfinite(self.growth) and self.growth > 1.0):
+            raise ValueError(f"growth must be a number greater than 1, got {self.growth}")
+        for name in ("size_min", "size_max"):
+            v = getattr(self, name)
+            if v is not None and not (math.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be a positive number, got {v}")
+        if (
+            self.size_min is not None
+            and self.size_max is not None
+            and self.size_min > self.size_max
+        ):
+            raise ValueError("size_min must not exceed size_max")
+
+
+@dataclass(frozen=True)
+class SmoothingParams:
+    """Which smoother runs, and the genetic algorithm's parameters (the paper's by default)."""
+
+    method: str = "ga"  #: a key of ``engine.smoothing.SMOOTHERS``
+    fitness: str = "combined"  #: a key of ``engine.fitness.FITNESS``
+    alpha: float = 0.8  #: weight of the angle term in ``combined``
+    beta: float = 0.2  #: weight of the aspect-ratio term in ``combined``
+    population: int = 100  #: candidate positions per node
+    generations: int = 50  #: generations per node-GA
+    crossover_rate: float = 0.8  #: probability of one-point crossover per pair
+    mutation_rate: float = 0.15  #: probability of replacing each gene
+    tolerance: float = 0.01  #: stop when a sweep's largest fitness change is below this
+    max_sweeps: int = 20  #: upper bound on GA sweeps
+    iterations: int = 10  #: sweeps of the Laplacian baselines
+    threshold: float | None = None  #: evolve only nodes whose fitness is below this
+
+
+@dataclass(frozen=True)
+class PipelineParams:
+    """Everything ``mesh_then_smooth`` needs besides the region and the random generator."""
+
+    sizing: SizingParams
+    swap: bool = True
+    smoothing: SmoothingParams = field(default_factory=SmoothingParams)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-JSON form, stored in results."""
+        return asdict(self)

@@ -1,0 +1,176 @@
+"""The pipeline: boundary -> advancing front -> diagonal swapping -> smoothing -> quality."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import asdict
+from typing import Any
+
+import numpy as np
+
+from .boundary import Region
+from .discretize import discretize
+from .errors import Cancelled
+from .fitness import node_fitness
+from .front import advance_front
+from .mesh import Mesh
+from .params import PipelineParams, SizingParams, SmoothingParams
+from .quality import summarize, triangle_quality
+from .result import ProgressFn, Result, Snapshot, StopFn
+from .sizing import build_size_field
+from .smoothing import SMOOTHERS, smooth_points
+from .swap import swap_diagonals
+
+__all__ = ["assess_mesh", "mesh_region", "mesh_then_smooth", "smooth_mesh", "warmup"]
+
+
+def _no_progress(stage: str, fraction: float) -> None:
+    del stage, fraction
+
+
+def _never() -> bool:
+    return False
+
+
+def assess_mesh(mesh: Mesh, smoothing: SmoothingParams | None = None) -> Snapshot:
+    """Per-triangle quality, per-node fitness and the summary of ``mesh``.
+
+    >>> from engine.mesh import Mesh
+    >>> pts = np.array([[0.0, 0.0], [1.0, 0.0], [0.5, np.sqrt(3) / 2]])
+    >>> snap = assess_mesh(Mesh(pts, np.array([[0, 1, 2]])))
+    >>> round(snap.summary["quality"]["min"], 6), snap.fitness.round(6).tolist()
+    (1.0, [1.0, 1.0, 1.0])
+    """
+    s = smoothing or SmoothingParams()
+    q = triangle_quality(mesh)
+    fit = node_fitness(mesh, s.fitness, s.alpha, s.beta)
+    summary: dict[str, Any] = summarize(q)
+    summary["points"] = mesh.n_points
+    movable = ~mesh.boundary_nodes
+    inner = fit[movable]
+    summary["fitness"] = {
+        "function": s.fitness,
+        "min": float(inner.min()) if inner.size else None,
+        "mean": float(inner.mean()) if inner.size else None,
+    }
+    return Snapshot(mesh=mesh, quality=q, fitness=fit, summary=summary)
+
+
+def mesh_region(
+    region: Region, sizing: SizingParams, should_stop: StopFn | None = None
+) -> tuple[Mesh, dict[str, float]]:
+    """Mesh ``region`` (no swapping, no smoothing); returns the mesh and stage timings."""
+    t0 = time.perf_counter()
+    field = build_size_field(region, sizing)
+    boundary = discretize(region, field)
+    t1 = time.perf_counter()
+    mesh = advance_front(boundary, field, should_stop)
+    t2 = time.perf_counter()
+    return mesh, {"boundary": t1 - t0, "mesh": t2 - t1}
+
+
+def _check_method(smoothing: SmoothingParams) -> None:
+    if smoothing.method not in SMOOTHERS:
+        raise ValueError(
+            f"unknown smoothing method {smoothing.method!r}; choose one of {sorted(SMOOTHERS)}"
+        )
+
+
+def _improve(
+    initial: Mesh,
+    smoothing: SmoothingParams,
+    swap: bool,
+    rng: np.random.Generator,
+    progress: ProgressFn,
+    should_stop: StopFn,
+    timings: dict[str, float],
+    parameters: dict[str, Any],
+    started: float,
+) -> Result:
+    first = assess_mesh(initial, smoothing)
+    t = time.perf_counter()
+    if should_stop():
+        raise Cancelled("stopped before swapping")
+    progress("swap", 0.0)
+    swapped_mesh = swap_diagonals(initial) if swap else initial
+    progress("swap", 1.0)
+    timings["swap"] = time.perf_counter() - t
+    second = assess_mesh(swapped_mesh, smoothing) if swap else first
+    t = time.perf_counter()
+    if should_stop():
+        raise Cancelled("stopped before smoothing")
+    progress("smooth", 0.0)
+    outcome = smooth_points(swapped_mesh, smoothing, rng, progress, should_stop)
+    progress("smooth", 1.0)
+    timings["smooth"] = time.perf_counter() - t
+    final = assess_mesh(swapped_mesh.with_points(outcome.points), smoothing)
+    timings["total"] = time.perf_counter() - started
+    return Result(
+        initial=first,
+        swapped=second,
+        smoothed=final,
+        history=outcome.history,
+        parameters=parameters,
+        timings=timings,
+    )
+
+
+def mesh_then_smooth(
+    region: Region,
+    params: PipelineParams,
+    rng: np.random.Generator | None = None,
+    progress: ProgressFn | None = None,
+    should_stop: StopFn | None = None,
+) -> Result:
+    """Mesh ``region``, swap diagonals, smooth interior nodes; report every stage.
+
+    >>> from engine.boundary import make_region
+    >>> square = make_region([([[0, 0], [1, 0], [1, 1], [0, 1]], [])])
+    >>> params = PipelineParams(SizingParams(size=0.25), smoothing=SmoothingParams(method="none"))
+    >>> result = mesh_then_smooth(square, params, np.random.default_rng(0))
+    >>> result.smoothed.summary["inverted"], sorted(result.timings)
+    (0, ['boundary', 'mesh', 'smooth', 'swap', 'total'])
+    """
+    progress = progress or _no_progress
+    should_stop = should_stop or _never
+    rng = rng if rng is not None else np.random.default_rng(0)
+    _check_method(params.smoothing)
+    started = time.perf_counter()
+    progress("boundary", 0.0)
+    mesh, timings = mesh_region(region, params.sizing, should_stop)
+    progress("mesh", 1.0)
+    return _improve(
+        mesh, params.smoothing, params.swap, rng, progress, should_stop, timings,
+        params.to_dict(), started,
+    )  # fmt: skip
+
+
+def smooth_mesh(
+    mesh: Mesh,
+    smoothing: SmoothingParams,
+    swap: bool = True,
+    rng: np.random.Generator | None = None,
+    progress: ProgressFn | None = None,
+    should_stop: StopFn | None = None,
+) -> Result:
+    """Swap and smooth an existing mesh; boundary nodes stay fixed."""
+    progress = progress or _no_progress
+    should_stop = should_stop or _never
+    rng = rng if rng is not None else np.random.default_rng(0)
+    _check_method(smoothing)
+    started = time.perf_counter()
+    timings = {"boundary": 0.0, "mesh": 0.0}
+    parameters = {"swap": swap, "smoothing": asdict(smoothing)}
+    return _improve(mesh, smoothing, swap, rng, progress, should_stop, timings, parameters, started)
+
+
+def warmup() -> None:
+    """Run every stage once on a tiny region so numba compiles (and caches) its kernels."""
+    from .boundary import make_region
+
+    region = make_region(
+        [([[0, 0], [1, 0], [1, 1], [0, 1]], [[[0.4, 0.4], [0.6, 0.4], [0.5, 0.6]]])]
+    )
+    for method in SMOOTHERS:
+        smoothing = SmoothingParams(method=method, population=8, generations=2, max_sweeps=1)
+        mesh_then_smooth(region, PipelineParams(SizingParams(0.2), smoothing=smoothing))

@@ -1,0 +1,1 @@
+"""evomesh service: the HTTP API, job store and workers, formats, viewer and command line."""

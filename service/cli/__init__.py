@@ -1,0 +1,57 @@
+"""The ``evomesh`` command line: local meshing and smoothing, the server, and the client."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from importlib.metadata import PackageNotFoundError, version
+
+from . import local, serve
+
+__all__ = ["CliError", "build_parser", "main"]
+
+
+class CliError(Exception):
+    """A user error: printed as one line, exit code 2."""
+
+
+def package_version() -> str:
+    try:
+        return version("evomesh")
+    except PackageNotFoundError:  # running from a source tree that was never installed
+        return "0+unknown"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="evomesh",
+        description="Triangular meshing of planar regions with genetic-algorithm smoothing.",
+    )
+    parser.add_argument("--version", action="version", version=f"evomesh {package_version()}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for module in (local, serve):
+        module.register(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return 2
+    try:
+        code: int = args.handler(args)
+    except KeyboardInterrupt:
+        print("evomesh: interrupted", file=sys.stderr)
+        return 130
+    except local.USER_ERRORS as exc:
+        message = " ".join(str(exc).split())
+        print(f"evomesh: error: {message}", file=sys.stderr)
+        return 2
+    return code
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
