@@ -41,10 +41,19 @@ class SizingParams:
 
 @dataclass(frozen=True)
 class SmoothingParams:
-    """Which smoother runs, and the genetic algorithm's parameters (the paper's by default)."""
+    """Which smoother runs, and the genetic algorithm's parameters.
+
+    The GA parameters default to the paper's; the fitness defaults to ``balanced`` (measured
+    best, see :mod:`engine.fitness`). Out-of-range numbers raise ``ValueError``.
+
+    >>> SmoothingParams(population=1)
+    Traceback (most recent call last):
+    ...
+    ValueError: population must be an integer of at least 2, got 1
+    """
 
     method: str = "ga"  #: a key of ``engine.smoothing.SMOOTHERS``
-    fitness: str = "combined"  #: a key of ``engine.fitness.FITNESS``
+    fitness: str = "balanced"  #: a key of ``engine.fitness.FITNESS`` (the paper's is "combined")
     alpha: float = 0.8  #: weight of the angle term in ``combined``
     beta: float = 0.2  #: weight of the aspect-ratio term in ``combined``
     population: int = 100  #: candidate positions per node
@@ -55,6 +64,29 @@ class SmoothingParams:
     max_sweeps: int = 20  #: upper bound on GA sweeps
     iterations: int = 10  #: sweeps of the Laplacian baselines
     threshold: float | None = None  #: evolve only nodes whose fitness is below this
+
+    def __post_init__(self) -> None:
+        for name in ("population", "generations", "max_sweeps", "iterations"):
+            low = 2 if name == "population" else 1
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < low:
+                raise ValueError(f"{name} must be an integer of at least {low}, got {v}")
+        for name in ("crossover_rate", "mutation_rate"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and 0.0 <= v <= 1.0):
+                raise ValueError(f"{name} must be within [0, 1], got {v}")
+        if not (
+            math.isfinite(self.alpha) and math.isfinite(self.beta) and self.alpha >= 0
+            and self.beta >= 0 and self.alpha + self.beta > 0
+        ):  # fmt: skip
+            raise ValueError(
+                f"alpha and beta must be non-negative with a positive sum, got "
+                f"{self.alpha} and {self.beta}"
+            )
+        if not (math.isfinite(self.tolerance) and self.tolerance >= 0):
+            raise ValueError(f"tolerance must be a non-negative number, got {self.tolerance}")
+        if self.threshold is not None and not math.isfinite(self.threshold):
+            raise ValueError(f"threshold must be a number, got {self.threshold}")
 
 
 @dataclass(frozen=True)

@@ -6,6 +6,8 @@ from collections.abc import Callable
 
 import numpy as np
 
+from .ga import ga_smooth
+from .laplacian import laplacian_smooth, smart_laplacian_smooth
 from .mesh import Mesh
 from .params import SmoothingParams
 from .result import ProgressFn, SmoothOutcome, StopFn
@@ -26,7 +28,12 @@ def _none(
     return SmoothOutcome(points=mesh.points.copy())
 
 
-SMOOTHERS: dict[str, Smoother] = {"none": _none}
+SMOOTHERS: dict[str, Smoother] = {
+    "none": _none,
+    "laplacian": laplacian_smooth,
+    "smart-laplacian": smart_laplacian_smooth,
+    "ga": ga_smooth,
+}
 
 
 def smooth_points(

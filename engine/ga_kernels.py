@@ -1,0 +1,394 @@
+"""Numba kernels of the genetic algorithm: one independent set of nodes evolves at once.
+
+Nodes of one set share no triangle, so each node's GA reads only fixed neighbour positions and
+writes only its own rows: the ``prange`` loops below are race-free, and since every random draw
+comes from the node's own counter-based stream (:mod:`engine.rng`), a node's result is the same
+whichever thread runs it.
+
+Inside the GA loop the angle term uses a polynomial arctangent (absolute error below 4e-8 rad,
+i.e. a fitness error below 1e-7): it guides selection only. Whether a node moves is decided by
+:func:`accept_moves` with the exact fitness of :mod:`engine.star`, the value that is reported.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+from .rng import uniform
+from .star import (
+    ANGLE,
+    ASPECT,
+    BALANCED,
+    COMBINED,
+    MIN_QUALITY,
+    WORST,
+    star_fitness,
+    star_min_quality,
+)
+
+__all__ = [
+    "accept_moves",
+    "crossover",
+    "draws_per_generation",
+    "evaluate",
+    "ga_init",
+    "ga_step",
+    "mutate",
+    "roulette",
+]
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+UIntArray = NDArray[np.uint64]
+
+_TWO_SQRT3 = 2.0 * math.sqrt(3.0)
+_THIRD_PI = math.pi / 3.0
+_ANGLE_SCALE = (180.0 / math.pi) ** 2 / 21600.0  # squared radians -> the fitness's degree units
+# atan(r) ~ r * P(r^2) on [0, 1]: least-maximum-error fit, |error| < 3.8e-8 rad.
+_A0, _A1, _A2, _A3 = 0.99999934, -0.33329861, 0.19946566, -0.13908629
+_A4, _A5, _A6, _A7 = 0.09642195, -0.05591229, 0.02186293, -0.00405456
+
+
+@numba.njit(cache=True, inline="always")
+def _atan_unit(r: float) -> float:
+    """``atan(r)`` for ``0 <= r <= 1``."""
+    r2 = r * r
+    p = ((((((_A7 * r2 + _A6) * r2 + _A5) * r2 + _A4) * r2 + _A3) * r2 + _A2) * r2 + _A1) * r2
+    return r * (p + _A0)
+
+
+# error_model="numpy": a division must not raise (its check would stop the loops vectorising);
+# contract/arcp: fused multiply-adds and reciprocals, only in this guiding approximation.
+@numba.njit(cache=True, error_model="numpy", fastmath={"contract", "arcp"})
+def evaluate(
+    xs: FloatArray,
+    ys: FloatArray,
+    out: FloatArray,
+    work: FloatArray,
+    scale: float,
+    j0: int,
+    j1: int,
+    points: FloatArray,
+    opp_a: IntArray,
+    opp_b: IntArray,
+    kind: int,
+    alpha: float,
+    beta: float,
+) -> None:
+    """GA fitness of candidates ``(xs, ys)`` for the star entries ``j0:j1``; 0 if inadmissible.
+
+    ``work`` is (5, P) scratch. ``scale`` (a power of two near 1 / star size) makes the
+    candidates' offsets O(1), so that the one division per triangle below (shared by the
+    quality and the two arctangent ratios) can neither overflow nor underflow.
+    """
+    n = len(xs)
+    s_err, s_q, worst, X, Y = work[0], work[1], work[2], work[3], work[4]
+    for c in range(n):
+        s_err[c] = 0.0
+        s_q[c] = 0.0
+        worst[c] = math.inf
+        X[c] = xs[c] * scale
+        Y[c] = ys[c] * scale
+    need_angle = kind != ASPECT and kind != WORST
+    for j in range(j0, j1):
+        ax, ay = points[opp_a[j], 0] * scale, points[opp_a[j], 1] * scale
+        bx, by = points[opp_b[j], 0] * scale, points[opp_b[j], 1] * scale
+        ex, ey = bx - ax, by - ay
+        s0 = ex * ex + ey * ey
+        if need_angle:
+            for c in range(n):
+                dax, day = ax - X[c], ay - Y[c]
+                dbx, dby = bx - X[c], by - Y[c]
+                cross = dax * dby - day * dbx
+                total = max(s0 + (dbx * dbx + dby * dby) + (dax * dax + day * day), 1e-200)
+                # The angles at p and at a from atan2(|cross|, dot); the one at b is the rest.
+                h = abs(cross)
+                dp = dax * dbx + day * dby
+                da = -(dax * ex + day * ey)
+                big_p, small_p = max(max(abs(dp), h), 1e-150), min(abs(dp), h)
+                big_a, small_a = max(max(abs(da), h), 1e-150), min(abs(da), h)
+                inv = 1.0 / (big_p * big_a * total)
+                q = _TWO_SQRT3 * cross * (big_p * big_a * inv)
+                tp = _atan_unit(small_p * (big_a * total * inv))
+                ta = _atan_unit(small_a * (big_p * total * inv))
+                tp = 0.5 * math.pi - tp if h > abs(dp) else tp
+                tp = math.pi - tp if dp < 0.0 else tp
+                ta = 0.5 * math.pi - ta if h > abs(da) else ta
+                ta = math.pi - ta if da < 0.0 else ta
+                tb = math.pi - tp - ta
+                s_err[c] += (tp - _THIRD_PI) ** 2 + (ta - _THIRD_PI) ** 2 + (tb - _THIRD_PI) ** 2
+                s_q[c] += q
+                # A NaN quality (coincident points) must make the candidate inadmissible.
+                worst[c] = worst[c] if q >= worst[c] else q
+        else:
+            for c in range(n):
+                dax, day = ax - X[c], ay - Y[c]
+                dbx, dby = bx - X[c], by - Y[c]
+                cross = dax * dby - day * dbx
+                total = max(s0 + (dbx * dbx + dby * dby) + (dax * dax + day * day), 1e-200)
+                q = _TWO_SQRT3 * cross / total
+                s_q[c] += q
+                worst[c] = worst[c] if q >= worst[c] else q
+    k = max(j1 - j0, 1)
+    w = alpha / (alpha + beta)
+    for c in range(n):
+        angle = 1.0 - s_err[c] * _ANGLE_SCALE / k
+        combined = w * angle + (1.0 - w) * (s_q[c] / k)
+        if kind == ANGLE:
+            f = angle
+        elif kind == ASPECT:
+            f = s_q[c] / k
+        elif kind == COMBINED:
+            f = combined
+        elif kind == BALANCED:
+            f = 0.5 * (worst[c] + combined)
+        else:
+            f = worst[c]
+        out[c] = f if worst[c] > MIN_QUALITY and f > 0.0 else 0.0
+
+
+def draws_per_generation(population: int) -> int:
+    """Random numbers one generation consumes per node (a fixed count, so streams stay aligned).
+
+    >>> draws_per_generation(100)
+    550
+    """
+    return population + population // 2 + 4 * population
+
+
+@numba.njit(cache=True, parallel=True)
+def ga_init(
+    nodes: IntArray,
+    keys: UIntArray,
+    points: FloatArray,
+    ptr: IntArray,
+    opp_a: IntArray,
+    opp_b: IntArray,
+    kind: int,
+    alpha: float,
+    beta: float,
+    pop_x: FloatArray,
+    pop_y: FloatArray,
+    fit: FloatArray,
+    best: FloatArray,
+    box: FloatArray,
+    work: FloatArray,
+) -> None:
+    """First generation: the current position plus uniform draws in the star's bounding box."""
+    size = pop_x.shape[1]
+    for s in numba.prange(len(nodes)):
+        node, key = nodes[s], keys[s]
+        j0, j1 = ptr[node], ptr[node + 1]
+        x0, x1 = math.inf, -math.inf
+        y0, y1 = math.inf, -math.inf
+        for j in range(j0, j1):
+            for v in (opp_a[j], opp_b[j]):
+                x0, x1 = min(x0, points[v, 0]), max(x1, points[v, 0])
+                y0, y1 = min(y0, points[v, 1]), max(y1, points[v, 1])
+        box[s, 0], box[s, 1], box[s, 2], box[s, 3] = x0, x1 - x0, y0, y1 - y0
+        size_exp = math.frexp(max(x1 - x0, y1 - y0, 1e-300))[1]
+        box[s, 4] = math.ldexp(1.0, -size_exp)  # a power of two: scaling by it is exact
+        xs, ys = pop_x[s], pop_y[s]
+        xs[0], ys[0] = points[node, 0], points[node, 1]
+        for c in range(1, size):
+            xs[c] = x0 + (x1 - x0) * uniform(key, np.uint64(2 * c))
+            ys[c] = y0 + (y1 - y0) * uniform(key, np.uint64(2 * c + 1))
+        evaluate(
+            xs, ys, fit[s], work[s], box[s, 4], j0, j1, points, opp_a, opp_b, kind, alpha, beta
+        )
+        b = np.argmax(fit[s])
+        best[s, 0], best[s, 1], best[s, 2] = xs[b], ys[b], fit[s, b]
+
+
+@numba.njit(cache=True, inline="always")
+def roulette(
+    f: FloatArray, cum: FloatArray, guide: IntArray, u: FloatArray, picks: IntArray
+) -> None:
+    """Roulette-wheel picks: ``picks[c]`` is the smallest i with ``cum[i] > u[c] * total``.
+
+    This inverts the cumulative fitness through a guide table (Chen and Asau 1974): bucket k of
+    the wheel remembers the first candidate that can end in it, so a draw costs O(1) on average;
+    the result is exactly that of a binary search, which is several times slower here (its
+    branches are unpredictable). All-zero fitness (every candidate inadmissible) picks uniformly.
+    """
+    size = len(f)
+    last = size - 1
+    total = 0.0
+    for c in range(size):
+        total += f[c]
+        cum[c] = total
+        guide[c] = 0
+    if not total > 0.0:
+        for c in range(size):
+            picks[c] = min(int(u[c] * size), last)
+        return
+    scale = size / total
+    for c in range(size):
+        guide[min(int(cum[c] * scale), last)] += 1
+    first = 0
+    for k in range(size):
+        count = guide[k]
+        guide[k] = min(first, last)
+        first += count
+    for c in range(size):
+        r = u[c] * total
+        i = guide[min(int(u[c] * size), last)]
+        while i > 0 and cum[i - 1] > r:  # only on rounding at a bucket edge
+            i -= 1
+        # Usually zero to two steps forward: take two without branching, loop for the rest.
+        i = min(i + (cum[i] <= r), last)
+        i = min(i + (cum[i] <= r), last)
+        while i < last and cum[i] <= r:
+            i += 1
+        picks[c] = i
+
+
+@numba.njit(cache=True, inline="always")
+def crossover(genes: FloatArray, u: FloatArray, rate: float) -> None:
+    """One-point crossover of pairs (0, 1), (2, 3), ...: with two genes per chromosome the only
+    cut is between x and y, so a crossing pair swaps its y genes; pair p crosses if ``u[p] <
+    rate``. ``genes`` holds the y genes."""
+    for p in range(len(genes) // 2):
+        a, b = genes[2 * p], genes[2 * p + 1]
+        swap = u[p] < rate
+        genes[2 * p] = b if swap else a
+        genes[2 * p + 1] = a if swap else b
+
+
+@numba.njit(cache=True, inline="always")
+def mutate(
+    nx: FloatArray,
+    ny: FloatArray,
+    xs: FloatArray,
+    ys: FloatArray,
+    decide: FloatArray,
+    values: FloatArray,
+    box: FloatArray,
+    rate: float,
+) -> None:
+    """Uniform mutation from ``(nx, ny)`` into ``(xs, ys)``: gene g of candidate c (x: g = 2c,
+    y: g = 2c + 1) is replaced when ``decide[g] < rate`` by a uniform draw in the search box
+    ``box = (x0, width, y0, height)``, ``values[g]`` giving its position."""
+    x0, wx, y0, wy = box[0], box[1], box[2], box[3]
+    for c in range(len(nx)):
+        mx = x0 + wx * values[2 * c]
+        my = y0 + wy * values[2 * c + 1]
+        xs[c] = mx if decide[2 * c] < rate else nx[c]
+        ys[c] = my if decide[2 * c + 1] < rate else ny[c]
+
+
+@numba.njit(cache=True, parallel=True)
+def ga_step(
+    nodes: IntArray,
+    keys: UIntArray,
+    first: int,
+    count: int,
+    points: FloatArray,
+    ptr: IntArray,
+    opp_a: IntArray,
+    opp_b: IntArray,
+    kind: int,
+    alpha: float,
+    beta: float,
+    crossover_rate: float,
+    mutation_rate: float,
+    pop_x: FloatArray,
+    pop_y: FloatArray,
+    fit: FloatArray,
+    best: FloatArray,
+    box: FloatArray,
+    work: FloatArray,
+    draws: FloatArray,
+    picks: IntArray,
+) -> None:
+    """Generations ``first .. first+count-1`` (1-based) of every node of the set.
+
+    Each generation: roulette-wheel selection (one draw per slot against the cumulative
+    fitness), one-point crossover of pairs (with two genes: swap the y genes), uniform mutation
+    of each gene, then the best candidate so far replaces slot 0 (elitism). ``draws`` (S, D)
+    and ``picks`` (S, 2, P) are scratch; D is :func:`draws_per_generation`.
+    """
+    size = pop_x.shape[1]
+    half = size // 2
+    per_gen = draws.shape[1]
+    cross0, mut0 = size, size + half
+    val0 = mut0 + 2 * size
+    for s in numba.prange(len(nodes)):
+        node, key = nodes[s], keys[s]
+        j0, j1 = ptr[node], ptr[node + 1]
+        xs, ys, f, u = pop_x[s], pop_y[s], fit[s], draws[s]
+        cum, nx, ny = work[s, 0], work[s, 1], work[s, 2]
+        pick, guide = picks[s, 0], picks[s, 1]
+        for g in range(first, first + count):
+            base = np.uint64(2 * size + (g - 1) * per_gen)
+            for i in range(per_gen):
+                u[i] = uniform(key, base + np.uint64(i))
+            roulette(f, cum, guide, u, pick)
+            for c in range(size):
+                nx[c], ny[c] = xs[pick[c]], ys[pick[c]]
+            crossover(ny, u[cross0:mut0], crossover_rate)
+            mutate(nx, ny, xs, ys, u[mut0:val0], u[val0:], box[s], mutation_rate)
+            xs[0], ys[0] = best[s, 0], best[s, 1]
+            evaluate(xs, ys, f, work[s], box[s, 4], j0, j1, points, opp_a, opp_b, kind, alpha, beta)
+            b = np.argmax(f)
+            if f[b] > best[s, 2]:
+                best[s, 0], best[s, 1], best[s, 2] = xs[b], ys[b], f[b]
+
+
+@numba.njit(cache=True)
+def accept_moves(
+    nodes: IntArray,
+    best: FloatArray,
+    points: FloatArray,
+    fitness: FloatArray,
+    ptr: IntArray,
+    opp_a: IntArray,
+    opp_b: IntArray,
+    kind: int,
+    alpha: float,
+    beta: float,
+    halvings: int,
+    moved: NDArray[np.bool_],
+) -> None:
+    """Move each node of the set, in order, to its GA result when that is an improvement.
+
+    A move of node n from p toward the GA's best p' is tried at p', then at p + (p' - p) / 2,
+    / 4, ... (``halvings`` times; the star's kernel is convex, so these points stay admissible).
+    It is kept at the first point where, computed exactly:
+
+    - every triangle of n's star has shape quality above :data:`~engine.star.MIN_QUALITY`;
+    - the worst shape quality of n's star is not lower than before;
+    - n's fitness is strictly higher than before.
+
+    ``points`` and ``fitness`` are updated in place; ``fitness`` must hold the exact current
+    fitness of every node, and still does afterwards (n's and its neighbours' are recomputed).
+    """
+    for s in range(len(nodes)):
+        n = nodes[s]
+        px, py = points[n, 0], points[n, 1]
+        dx, dy = best[s, 0] - px, best[s, 1] - py
+        old_worst = star_min_quality(px, py, n, points, ptr, opp_a, opp_b)
+        step = 1.0
+        for _ in range(halvings + 1):
+            x, y = px + step * dx, py + step * dy
+            step *= 0.5
+            worst = star_min_quality(x, y, n, points, ptr, opp_a, opp_b)
+            if worst <= MIN_QUALITY or worst < old_worst:
+                continue
+            f = star_fitness(x, y, n, points, ptr, opp_a, opp_b, kind, alpha, beta)
+            if not f > fitness[n]:
+                continue
+            points[n, 0], points[n, 1] = x, y
+            fitness[n] = f
+            # An interior node's neighbours are its star's opp_a entries, once each.
+            for j in range(ptr[n], ptr[n + 1]):
+                m = opp_a[j]
+                fitness[m] = star_fitness(
+                    points[m, 0], points[m, 1], m, points, ptr, opp_a, opp_b, kind, alpha, beta
+                )
+            moved[s] = True
+            break
