@@ -40,20 +40,39 @@ def _fraction(text: str) -> float:
 def _add_smoothing_flags(p: argparse.ArgumentParser, method_flag: str) -> None:
     d = SmoothingParams()
     p.add_argument(
-        method_flag, dest="method", default=d.method, help=f"smoother (default {d.method})"
+        method_flag,
+        dest="method",
+        default=d.method,
+        help=f"{' | '.join(engine.SMOOTHERS)} (default {d.method})",
     )
     p.add_argument("--no-swap", action="store_true", help="skip diagonal swapping")
-    p.add_argument("--fitness", default=d.fitness, help="angle | aspect | combined | worst")
-    p.add_argument("--alpha", type=float, default=d.alpha)
-    p.add_argument("--beta", type=float, default=d.beta)
+    _add_fitness_flags(p)
     p.add_argument("--population", type=_positive(int), default=d.population)
     p.add_argument("--generations", type=_positive(int), default=d.generations)
     p.add_argument("--crossover-rate", type=_fraction, default=d.crossover_rate)
     p.add_argument("--mutation-rate", type=_fraction, default=d.mutation_rate)
-    p.add_argument("--tolerance", type=float, default=d.tolerance)
+    p.add_argument(
+        "--tolerance", type=float, default=d.tolerance, help="stop when a sweep changes less"
+    )
     p.add_argument("--max-sweeps", type=_positive(int), default=d.max_sweeps)
-    p.add_argument("--iterations", type=_positive(int), default=d.iterations)
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument(
+        "--threshold", type=float, default=d.threshold, help="evolve only nodes below this fitness"
+    )
+    p.add_argument(
+        "--iterations", type=_positive(int), default=d.iterations, help="Laplacian sweeps"
+    )
+    p.add_argument("--seed", type=int, default=0, help="random seed of the GA (default 0)")
+
+
+def _add_fitness_flags(p: argparse.ArgumentParser) -> None:
+    d = SmoothingParams()
+    p.add_argument(
+        "--fitness",
+        default=d.fitness,
+        help=f"{' | '.join(engine.FITNESS)} (default {d.fitness})",
+    )
+    p.add_argument("--alpha", type=float, default=d.alpha, help="weight of the angle term")
+    p.add_argument("--beta", type=float, default=d.beta, help="weight of the aspect term")
 
 
 def register(sub: Any) -> None:
@@ -77,6 +96,7 @@ def register(sub: Any) -> None:
     q = sub.add_parser("quality", help="print the quality summary of a mesh document")
     q.add_argument("mesh")
     q.add_argument("--json", action="store_true", help="print the whole document")
+    _add_fitness_flags(q)
     q.set_defaults(handler=run_quality)
 
 
@@ -98,6 +118,7 @@ def _smoothing(args: argparse.Namespace) -> SmoothingParams:
         tolerance=args.tolerance,
         max_sweeps=args.max_sweeps,
         iterations=args.iterations,
+        threshold=args.threshold,
     )
 
 
@@ -148,7 +169,8 @@ def run_smooth(args: argparse.Namespace) -> int:
 
 def run_quality(args: argparse.Namespace) -> int:
     mesh = mesh_from_document(_read_json(args.mesh))
-    snap = engine.assess_mesh(mesh)
+    fitness = SmoothingParams(fitness=args.fitness, alpha=args.alpha, beta=args.beta)
+    snap = engine.assess_mesh(mesh, fitness)
     if args.json:
         cells = {k: getattr(snap.quality, k).tolist() for k in CELL_FIELDS}
         doc = {"summary": snap.summary, "cell_data": cells}
@@ -161,5 +183,9 @@ def run_quality(args: argparse.Namespace) -> int:
         v = s[key]
         print(f"{key:14s} min {v['min']:.4f}  p5 {v['p5']:.4f}  mean {v['mean']:.4f}")
     print(f"below 30 deg   {100 * s['share_below_30deg']:.2f}%")
+    print(f"quality >=0.91 {100 * s['share_quality_ge_0.91']:.2f}%")
     print(f"inverted       {s['inverted']}")
+    fit = s["fitness"]
+    if fit["min"] is not None:
+        print(f"fitness        min {fit['min']:.4f}  mean {fit['mean']:.4f}  ({fit['function']})")
     return 0
