@@ -22,7 +22,8 @@ from .rng import uniform
 from .star import (
     ANGLE,
     ASPECT,
-    BALANCED,
+    CAP_MARGIN,
+    CAPPED,
     COMBINED,
     MIN_QUALITY,
     WORST,
@@ -144,8 +145,8 @@ def evaluate(
             f = s_q[c] / k
         elif kind == COMBINED:
             f = combined
-        elif kind == BALANCED:
-            f = 0.5 * (worst[c] + combined)
+        elif kind == CAPPED:
+            f = min(combined, worst[c] + CAP_MARGIN)
         else:
             f = worst[c]
         out[c] = f if worst[c] > MIN_QUALITY and f > 0.0 else 0.0

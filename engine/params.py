@@ -43,7 +43,7 @@ class SizingParams:
 class SmoothingParams:
     """Which smoother runs, and the genetic algorithm's parameters.
 
-    The GA parameters default to the paper's; the fitness defaults to ``balanced`` (measured
+    The GA parameters default to the paper's; the fitness defaults to ``capped`` (measured
     best, see :mod:`engine.fitness`). Out-of-range numbers raise ``ValueError``.
 
     >>> SmoothingParams(population=1)
@@ -53,7 +53,7 @@ class SmoothingParams:
     """
 
     method: str = "ga"  #: a key of ``engine.smoothing.SMOOTHERS``
-    fitness: str = "balanced"  #: a key of ``engine.fitness.FITNESS`` (the paper's is "combined")
+    fitness: str = "capped"  #: a key of ``engine.fitness.FITNESS`` (the paper's is "combined")
     alpha: float = 0.8  #: weight of the angle term in ``combined``
     beta: float = 0.2  #: weight of the aspect-ratio term in ``combined``
     population: int = 100  #: candidate positions per node

@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 __all__ = [
     "ANGLE",
     "ASPECT",
-    "BALANCED",
+    "CAPPED",
     "COMBINED",
     "MIN_QUALITY",
     "WORST",
@@ -44,10 +44,12 @@ FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
 #: Fitness kind codes, the kernels' view of :data:`engine.fitness.FITNESS`.
-ANGLE, ASPECT, COMBINED, WORST, BALANCED = 0, 1, 2, 3, 4
+ANGLE, ASPECT, COMBINED, WORST, CAPPED = 0, 1, 2, 3, 4
 #: A move is admissible only when every triangle of the star keeps a shape quality above this: no
 #: inversion, and a margin from degeneracy so results always pass :func:`engine.validate_mesh`.
 MIN_QUALITY = 1e-6
+#: ``capped`` fitness: ``min(combined, worst + CAP_MARGIN)``.
+CAP_MARGIN = 0.05
 
 _FOUR_SQRT3 = 4.0 * math.sqrt(3.0)
 _DEG = 180.0 / math.pi
@@ -154,8 +156,8 @@ def star_fitness(
     combined = (alpha * (s_angle / count) + beta * (s_q / count)) / (alpha + beta)
     if kind == COMBINED:
         return combined
-    if kind == BALANCED:
-        return 0.5 * (worst + combined)
+    if kind == CAPPED:
+        return min(combined, worst + CAP_MARGIN)
     return worst
 
 

@@ -18,7 +18,7 @@ EQUILATERAL = np.array([[0.0, 0.0], [1.0, 0.0], [0.5, np.sqrt(3) / 2]])
 
 def test_every_fitness_has_a_reference_and_a_kernel() -> None:
     assert set(FITNESS) == set(REFERENCE) == set(FITNESS_CODES)
-    assert {"angle", "aspect", "combined", "worst", "balanced"} == set(FITNESS)
+    assert {"angle", "aspect", "combined", "worst", "capped"} == set(FITNESS)
 
 
 @settings(max_examples=30, deadline=None)
@@ -49,10 +49,13 @@ def test_inverted_star_and_unused_node_score_zero() -> None:
         np.testing.assert_allclose(fit, REFERENCE[name](mesh, 0.8, 0.2), atol=1e-12)
 
 
-def test_balanced_is_the_mean_of_worst_and_combined() -> None:
+def test_capped_is_combined_capped_by_the_worst_triangle() -> None:
     mesh = random_mesh(3)
-    expected = 0.5 * (node_fitness(mesh, "worst") + node_fitness(mesh, "combined"))
-    np.testing.assert_allclose(node_fitness(mesh, "balanced"), expected, atol=1e-15)
+    worst, combined = node_fitness(mesh, "worst"), node_fitness(mesh, "combined")
+    capped = node_fitness(mesh, "capped")
+    np.testing.assert_allclose(capped, np.minimum(combined, worst + 0.05), atol=1e-15)
+    assert np.any(capped < combined)
+    assert np.any(capped == combined)
 
 
 def test_unknown_fitness_names_the_choices() -> None:

@@ -179,7 +179,7 @@ def test_accepted_moves_raise_the_node_and_never_lower_its_worst_triangle(
 
 
 @settings(max_examples=25, deadline=None)
-@given(mesh=meshes(), fitness=st.sampled_from(["balanced", "combined", "worst", "angle"]))
+@given(mesh=meshes(), fitness=st.sampled_from(["capped", "combined", "worst", "angle"]))
 def test_ga_keeps_the_mesh_valid_and_never_worsens_its_worst_triangle(
     mesh: Mesh, fitness: str
 ) -> None:

@@ -1,0 +1,213 @@
+"""Smoothing benchmark: the smoothers side by side, and the full pipeline against gmsh.
+
+Prints, never asserts. Two tables:
+
+1. ``tests/data/poor/*.poor.json`` (valid meshes of the public cases with jittered interior
+   nodes): none / laplacian / smart-laplacian / ga (paper parameters, default fitness) on the same
+   connectivity (no swapping, so only the smoothers differ), plus ``swap+ga`` (what
+   ``evomesh smooth`` does by default).
+2. evomesh's own meshes of ``tests/data/cases/*.geojson`` (size ``h`` from each Feature): as
+   meshed, after the default pipeline (swap + ga), and gmsh Frontal-Delaunay (``Mesh.Algorithm 6``
+   with its ``Relocate2D`` optimiser) at the same size, when gmsh is installed (``make bench``
+   installs it).
+
+Columns: worst and mean radius ratio (2r/R), smallest angle, share of triangles with quality
+>= 0.91, inverted triangles, seconds, node-GAs per second (one node-GA = population x generations
+candidate evaluations). Run: ``python benchmarks/smooth_bench.py [--cases a,b] [--no-own]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import engine
+from engine.mesh import Mesh
+from engine.quality import triangle_quality
+from engine.swap import swap_diagonals
+from service.geojson import parse_region
+
+ROOT = Path(__file__).resolve().parents[1]
+POOR = ROOT / "tests" / "data" / "poor"
+CASES = ROOT / "tests" / "data" / "cases"
+HEADER = (
+    f"{'case':20s} {'method':16s} {'rr min':>7s} {'rr mean':>8s} {'ang min':>8s} "
+    f"{'q>=.91':>7s} {'inv':>4s} {'tris':>6s} {'s':>7s} {'nGA/s':>7s}"
+)
+
+
+def _quiet(stage: str, fraction: float) -> None:
+    del stage, fraction
+
+
+def _never() -> bool:
+    return False
+
+
+def figures(mesh: Mesh) -> dict[str, float]:
+    q = triangle_quality(mesh)
+    return {
+        "rr_min": float(q.radius_ratio.min()),
+        "rr_mean": float(q.radius_ratio.mean()),
+        "angle_min": float(q.min_angle.min()),
+        "q91": 100.0 * float(np.mean(q.quality >= 0.91)),
+        "inverted": int(np.count_nonzero(q.area <= 0)),
+        "triangles": mesh.n_triangles,
+    }
+
+
+def row(case: str, method: str, f: dict[str, float], seconds: float, rate: float = 0.0) -> str:
+    rate_text = f"{rate:7.0f}" if rate else f"{'':>7s}"
+    return (
+        f"{case:20s} {method:16s} {f['rr_min']:7.3f} {f['rr_mean']:8.4f} {f['angle_min']:8.1f} "
+        f"{f['q91']:6.1f}% {f['inverted']:4d} {f['triangles']:6d} {seconds:7.2f} {rate_text}"
+    )
+
+
+def smooth(mesh: Mesh, method: str, swap: bool) -> tuple[Mesh, float, float]:
+    """Smooth with the default (paper) parameters; returns mesh, seconds, node-GAs per second."""
+    params = engine.SmoothingParams(method=method)
+    t0 = time.perf_counter()
+    base = swap_diagonals(mesh) if swap else mesh
+    out = engine.smoothing.smooth_points(base, params, np.random.default_rng(0), _quiet, _never)
+    seconds = time.perf_counter() - t0
+    evolved = sum(h.nodes_evolved for h in out.history) if method == "ga" else 0
+    ga_seconds = sum(h.seconds for h in out.history)
+    return base.with_points(out.points), seconds, evolved / ga_seconds if evolved else 0.0
+
+
+def poor_table(names: list[str]) -> dict[str, dict[str, dict[str, float]]]:
+    print("\n## Smoothers on the poor meshes (same connectivity; swap+ga = `evomesh smooth`)")
+    print(HEADER)
+    results: dict[str, dict[str, dict[str, float]]] = {}
+    for name in names:
+        doc = json.loads((POOR / f"{name}.poor.json").read_text())
+        mesh = engine.validate_mesh(doc["points"], doc["triangles"])
+        results[name] = {}
+        for method, swap in [("none", False), ("laplacian", False), ("smart-laplacian", False),
+                             ("ga", False), ("ga", True)]:  # fmt: skip
+            out, seconds, rate = smooth(mesh, method, swap)
+            label = f"swap+{method}" if swap else method
+            results[name][label] = f = figures(out) | {"seconds": seconds, "rate": rate}
+            print(row(name, label, f, seconds, rate), flush=True)
+    return results
+
+
+def _gmsh_mesh(region: engine.Region, h: float) -> Mesh | None:
+    try:
+        import gmsh
+    except ImportError:
+        return None
+    gmsh.initialize(readConfigFiles=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("case")
+        geo = gmsh.model.geo
+        surfaces = []
+        for part in region.parts:
+            loops = []
+            for ring in part.rings:
+                pts = [geo.addPoint(float(x), float(y), 0.0, h) for x, y in ring]
+                lines = [geo.addLine(pts[i], pts[(i + 1) % len(pts)]) for i in range(len(pts))]
+                loops.append(geo.addCurveLoop(lines))
+            surfaces.append(geo.addPlaneSurface(loops))
+        geo.synchronize()
+        gmsh.option.setNumber("Mesh.Algorithm", 6)  # Frontal-Delaunay
+        gmsh.option.setNumber("Mesh.MeshSizeMax", h)
+        gmsh.model.mesh.generate(2)
+        gmsh.model.mesh.optimize("Relocate2D")
+        tags, coords, _ = gmsh.model.mesh.getNodes()
+        xy = coords.reshape(-1, 3)[:, :2]
+        index = {int(t): i for i, t in enumerate(tags)}
+        tris = []
+        for s in surfaces:
+            types, _, nodes = gmsh.model.mesh.getElements(2, s)
+            for kind, conn in zip(types, nodes, strict=True):
+                if kind == 2:
+                    tris.append(np.array([index[int(t)] for t in conn]).reshape(-1, 3))
+        tri = np.concatenate(tris)
+        a, b, c = xy[tri[:, 0]], xy[tri[:, 1]], xy[tri[:, 2]]
+        cross = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (
+            c[:, 0] - a[:, 0]
+        )
+        tri[cross < 0] = tri[cross < 0][:, ::-1]
+        return Mesh(np.ascontiguousarray(xy), tri)
+    finally:
+        gmsh.finalize()
+
+
+def own_table(names: list[str]) -> dict[str, dict[str, dict[str, float]]]:
+    print("\n## Full pipeline on evomesh's own meshes of the public cases, and gmsh")
+    print(HEADER)
+    results: dict[str, dict[str, dict[str, float]]] = {}
+    for name in names:
+        parsed = parse_region(json.loads((CASES / f"{name}.geojson").read_text()))
+        h = float(parsed.properties["h"])
+        t0 = time.perf_counter()
+        mesh, _ = engine.mesh_region(parsed.region, engine.SizingParams(h))
+        mesh_seconds = time.perf_counter() - t0
+        results[name] = {"meshed": figures(mesh) | {"seconds": mesh_seconds}}
+        print(row(name, "as meshed", results[name]["meshed"], mesh_seconds), flush=True)
+        out, seconds, rate = smooth(mesh, "ga", swap=True)
+        results[name]["swap+ga"] = f = figures(out) | {"seconds": seconds, "rate": rate}
+        print(row(name, "swap+ga", f, seconds, rate), flush=True)
+        t0 = time.perf_counter()
+        ref = _gmsh_mesh(parsed.region, h)
+        if ref is not None:
+            results[name]["gmsh"] = g = figures(ref) | {"seconds": time.perf_counter() - t0}
+            print(row(name, "gmsh FD+opt", g, g["seconds"]), flush=True)
+    return results
+
+
+def verdicts(poor: dict[str, Any], own: dict[str, Any]) -> None:
+    print("\n## Targets")
+    rates = [r["ga"]["rate"] for r in poor.values()] + [r["swap+ga"]["rate"] for r in own.values()]
+    rates = [r for r in rates if r]
+    if rates:
+        print(f"node-GAs per second: min {min(rates):.0f}, max {max(rates):.0f} (target >= 5000)")
+    for name, r in poor.items():
+        ok = r["ga"]["rr_min"] >= r["smart-laplacian"]["rr_min"] and r["ga"]["inverted"] == 0
+        print(f"poor {name:20s} ga rr min {r['ga']['rr_min']:.3f} vs smart-laplacian "
+              f"{r['smart-laplacian']['rr_min']:.3f}: {'ok' if ok else 'MISSED'}")  # fmt: skip
+    for name, r in own.items():
+        f = r["swap+ga"]
+        ok = f["angle_min"] >= 40 and f["rr_min"] >= 0.8 and f["q91"] >= 99.5
+        line = (f"own  {name:20s} angle {f['angle_min']:.1f} rr {f['rr_min']:.3f} "
+                f"q>=.91 {f['q91']:.2f}%: {'ok' if ok else 'MISSED'}")  # fmt: skip
+        if "gmsh" in r:
+            g = r["gmsh"]
+            match = f["rr_min"] >= g["rr_min"] and f["rr_mean"] >= g["rr_mean"]
+            line += (f"; vs gmsh rr min {g['rr_min']:.3f} mean {g['rr_mean']:.4f}: "
+                     f"{'matches' if match else 'behind'}")  # fmt: skip
+        print(line)
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    names = sorted(p.name.removesuffix(".poor.json") for p in POOR.glob("*.poor.json"))
+    parser.add_argument("--cases", default=",".join(names), help="comma-separated case names")
+    parser.add_argument("--no-poor", action="store_true", help="skip the poor-mesh table")
+    parser.add_argument("--no-own", action="store_true", help="skip the own-mesh table")
+    args = parser.parse_args(argv)
+    chosen = [c for c in args.cases.split(",") if c]
+    t0 = time.perf_counter()
+    engine.warmup()
+    print(f"numba warm-up {time.perf_counter() - t0:.1f} s; threads: {_threads()}")
+    poor = {} if args.no_poor else poor_table(chosen)
+    own = {} if args.no_own else own_table(chosen)
+    verdicts(poor, own)
+
+
+def _threads() -> int:
+    import numba
+
+    return int(numba.get_num_threads())
+
+
+if __name__ == "__main__":
+    main()
