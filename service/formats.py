@@ -1,7 +1,7 @@
 """Result formats: a registry of renderers from a stored mesh document to bytes.
 
 ``json`` is the document as stored; ``geojson`` a FeatureCollection of triangles carrying their
-quality figures; ``vtu`` (ParaView) and ``msh`` (Gmsh 2.2) are written by meshio with node
+quality figures; ``vtu`` (ParaView) and ``msh`` (Gmsh 2.2, binary) are written by meshio with node
 fitness as point data and triangle quality as cell data. Pictures (svg, png) register here too.
 
 >>> sorted(FORMATS)
@@ -124,9 +124,10 @@ register_format(
 register_format(
     ResultFormat(
         "msh",
-        "text/plain",
+        "application/octet-stream",
         ".msh",
-        _meshio("gmsh22", ".msh", binary=False),
-        "Gmsh 2.2 (ASCII)",
+        # Binary: meshio 5.3's ASCII writer prints numpy 2 scalars as "np.float64(...)".
+        _meshio("gmsh22", ".msh", binary=True),
+        "Gmsh 2.2 (binary)",
     )
 )

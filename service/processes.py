@@ -18,9 +18,11 @@ from pydantic import BaseModel
 
 import engine
 
+from .document import mesh_from_document
 from .geojson import parse_region
 from .inputs import (
     ExecuteRequest,
+    MeshDocumentInput,
     MeshExecute,
     MeshInputs,
     QualityExecute,
@@ -203,12 +205,21 @@ def _prepare_mesh(inputs: MeshInputs, settings: Settings, where: Where) -> Prepa
     return Prepared(resolved, smoothing["seed"], triangles)
 
 
-def _mesh_size(mesh: Any, settings: Settings, where: Where) -> int:
+def _mesh_size(mesh: MeshDocumentInput, settings: Settings, where: Where) -> int:
+    """Check a mesh input's size, then the mesh itself (so a bad mesh is refused up front)."""
     at = where("mesh")
-    _limit(
-        len(mesh.triangles), settings.max_triangles, "the number of triangles", f"{at}/triangles"
-    )
-    _limit(len(mesh.points), settings.max_triangles, "the number of points", f"{at}/points")
+    limit = settings.max_triangles
+    _limit(len(mesh.triangles), limit, "the number of triangles", f"{at}/triangles")
+    _limit(len(mesh.points), limit, "the number of points", f"{at}/points")
+    try:
+        mesh_from_document(mesh.model_dump(exclude_none=True))
+    except engine.InvalidMesh as exc:
+        pointer = at
+        if exc.triangle is not None:
+            pointer += f"/triangles/{exc.triangle}"
+        elif exc.point is not None:
+            pointer += f"/{'points_local' if mesh.points_local else 'points'}/{exc.point}"
+        raise Problem(422, exc.message, kind="invalid-mesh", pointer=pointer) from None
     return len(mesh.triangles)
 
 
