@@ -167,13 +167,16 @@ class MeshInputs(BaseModel):
     smoothing: SmoothingInput = Field(default_factory=SmoothingInput)
 
 
+Index = Annotated[int, Field(ge=0, le=2**31 - 1)]
+
+
 class MeshDocumentInput(BaseModel):
     """A mesh: ``points`` and counter-clockwise, 0-based ``triangles`` (a mesh document)."""
 
     model_config = ConfigDict(extra="allow", allow_inf_nan=False)
 
     points: list[Annotated[list[float], Field(min_length=2, max_length=2)]] = Field(min_length=3)
-    triangles: list[Annotated[list[int], Field(min_length=3, max_length=3)]] = Field(min_length=1)
+    triangles: list[Annotated[list[Index], Field(min_length=3, max_length=3)]] = Field(min_length=1)
     points_local: list[Annotated[list[float], Field(min_length=2, max_length=2)]] | None = None
 
 

@@ -19,7 +19,7 @@ from pydantic import BaseModel
 import engine
 
 from .document import mesh_from_document
-from .geojson import parse_region
+from .geojson import BoundaryInputError, parse_region
 from .inputs import (
     ExecuteRequest,
     MeshDocumentInput,
@@ -179,7 +179,15 @@ def _prepare_mesh(inputs: MeshInputs, settings: Settings, where: Where) -> Prepa
     at = where("boundary")
     _limit(rings, settings.max_rings, "the number of rings", at)
     _limit(vertices, settings.max_vertices, "the number of boundary vertices", at)
-    parsed = parse_region(inputs.boundary, pointer=at, wgs84=inputs.coordinates == "wgs84")
+    try:
+        parsed = parse_region(inputs.boundary, pointer=at, wgs84=inputs.coordinates == "wgs84")
+    except (BoundaryInputError, engine.InvalidBoundary):
+        raise
+    except (TypeError, ValueError, ArithmeticError) as exc:
+        # Input the parser did not foresee: still the input's fault, never a server error.
+        raise Problem(
+            422, f"the boundary could not be read: {exc}", kind="invalid-boundary", pointer=at
+        ) from exc
     size = inputs.size
     if size is None:
         h = parsed.properties.get("h")
@@ -220,6 +228,10 @@ def _mesh_size(mesh: MeshDocumentInput, settings: Settings, where: Where) -> int
         elif exc.point is not None:
             pointer += f"/{'points_local' if mesh.points_local else 'points'}/{exc.point}"
         raise Problem(422, exc.message, kind="invalid-mesh", pointer=pointer) from None
+    except (TypeError, ValueError, ArithmeticError) as exc:
+        raise Problem(
+            422, f"the mesh could not be read: {exc}", kind="invalid-mesh", pointer=at
+        ) from exc
     return len(mesh.triangles)
 
 
