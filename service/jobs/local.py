@@ -2,8 +2,12 @@
 
 Each worker is a plain ``multiprocessing`` process with its own pipe, so one that dies (killed,
 out of memory) is noticed through its sentinel and replaced alone, which a
-``ProcessPoolExecutor`` cannot do: it breaks whole when one of its workers dies. The supervisor
-lives on the event loop (pipe and sentinel readers), so it never blocks it and needs no thread.
+``ProcessPoolExecutor`` cannot do: it breaks whole when one of its workers dies.
+
+The supervisor's state lives on the event loop. One watcher thread waits on every worker's pipe
+and sentinel and hands what it reads to the loop (``call_soon_threadsafe``), in order per worker:
+reading there keeps a large result off the loop, and works the same under any event loop (uvloop's
+``add_reader`` misses messages on multiprocessing's sockets).
 
 Cancellation crosses the process boundary through one shared integer per worker: the supervisor
 writes the running task's token there and the worker's ``should_stop()`` compares it, which costs a
@@ -17,11 +21,14 @@ import contextlib
 import itertools
 import logging
 import multiprocessing
+import os
 import signal
+import threading
 import time
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
-from multiprocessing.connection import Connection
+from multiprocessing.connection import Connection, wait
 from multiprocessing.process import BaseProcess
 from typing import Any
 
@@ -95,12 +102,89 @@ class _Worker:
     process: BaseProcess
     conn: Connection
     stop: Any  #: shared int: token of the task to stop
+    sentinel: int = -1
     task: Task | None = None
     token: int = 0
     started: float = 0.0
     stopping: OutcomeKind | None = None  #: cancelled or timeout, once asked to stop
     timer: asyncio.TimerHandle | None = None
-    gone: bool = False
+    gone: bool = False  #: its death was handled (loop side)
+
+
+class _Watcher:
+    """A thread that reads the workers' pipes and notices their deaths."""
+
+    def __init__(
+        self,
+        loop: asyncio.AbstractEventLoop,
+        on_message: Callable[[_Worker, tuple[Any, ...]], None],
+        on_death: Callable[[_Worker], None],
+    ) -> None:
+        self._loop = loop
+        self._on_message = on_message
+        self._on_death = on_death
+        self._lock = threading.Lock()
+        self._workers: list[_Worker] = []
+        self._wake_r, self._wake_w = os.pipe()
+        self._stopped = False
+        self._thread = threading.Thread(target=self._run, name="evomesh-workers", daemon=True)
+        self._thread.start()
+
+    def add(self, worker: _Worker) -> None:
+        with self._lock:
+            self._workers.append(worker)
+        self._wake()
+
+    def _wake(self) -> None:
+        with contextlib.suppress(OSError):
+            os.write(self._wake_w, b"x")
+
+    def stop(self) -> None:
+        self._stopped = True
+        self._wake()
+        self._thread.join(10)
+        for fd in (self._wake_r, self._wake_w):
+            with contextlib.suppress(OSError):
+                os.close(fd)
+
+    def _post(self, fn: Callable[..., None], *args: Any) -> None:
+        with contextlib.suppress(RuntimeError):  # the loop is closed: nobody listens any more
+            self._loop.call_soon_threadsafe(fn, *args)
+
+    def _run(self) -> None:
+        while not self._stopped:
+            with self._lock:
+                workers = list(self._workers)
+            owners: dict[Any, _Worker] = {}
+            for w in workers:
+                owners[w.conn] = w
+                owners[w.sentinel] = w
+            ready = wait([self._wake_r, *owners])
+            if self._stopped:
+                return
+            for obj in ready:
+                if obj == self._wake_r:
+                    os.read(self._wake_r, 4096)
+                    continue
+                worker = owners[obj]
+                if obj is worker.conn:
+                    self._read(worker, once=True)
+                else:
+                    self._read(worker, once=False)  # what it sent before dying comes first
+                    with self._lock:
+                        self._workers.remove(worker)
+                    with contextlib.suppress(OSError):
+                        worker.conn.close()
+                    self._post(self._on_death, worker)
+
+    def _read(self, worker: _Worker, *, once: bool) -> None:
+        try:
+            while worker.conn.poll():
+                self._post(self._on_message, worker, worker.conn.recv())
+                if once:
+                    return
+        except (EOFError, OSError):
+            return  # closed: the sentinel reports the death
 
 
 class LocalBackend:
@@ -123,6 +207,7 @@ class LocalBackend:
         self._tokens = itertools.count(1)
         self._events: Events | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
+        self._watcher: _Watcher | None = None
         self._closing = False
         self._spawning = 0
         self._spawns: set[asyncio.Task[None]] = set()
@@ -132,6 +217,7 @@ class LocalBackend:
         self._events = events
         self._loop = asyncio.get_running_loop()
         self._closing = False
+        self._watcher = _Watcher(self._loop, self._handle, self._died)
         await asyncio.gather(*(self._spawn() for _ in range(self.workers)))
 
     async def _spawn(self) -> None:
@@ -147,49 +233,45 @@ class LocalBackend:
             child.close()
         finally:
             self._spawning -= 1
-        worker = _Worker(process, parent, stop)
-        if self._closing:
-            self._discard(worker, kill=True)
+        worker = _Worker(process, parent, stop, sentinel=process.sentinel)
+        if self._closing or self._watcher is None:
+            with contextlib.suppress(OSError, ValueError):
+                process.kill()
+            await asyncio.to_thread(process.join, 5.0)
+            parent.close()
             return
         self._pool.append(worker)
-        loop = self._require_loop()
-        loop.add_reader(parent.fileno(), self._readable, worker)
-        loop.add_reader(process.sentinel, self._died, worker)
+        self._watcher.add(worker)
         log.info("worker started", extra={"pid": process.pid})
         self._dispatch()
 
     async def close(self) -> None:
+        if self._closing and self._watcher is None:
+            return
         self._closing = True
         await asyncio.gather(*self._spawns, return_exceptions=True)
         pool, self._pool = self._pool, []
         self._queue.clear()
         for worker in pool:
-            self._discard(worker, kill=worker.task is not None)
+            if worker.timer is not None:
+                worker.timer.cancel()
+            with contextlib.suppress(OSError, ValueError):
+                if worker.task is None:
+                    worker.conn.send(None)  # idle: exit cleanly
+                else:
+                    worker.process.kill()
         await asyncio.gather(*(asyncio.to_thread(w.process.join, 5.0) for w in pool))
         for worker in pool:
             if worker.process.is_alive():
                 worker.process.kill()
                 await asyncio.to_thread(worker.process.join, 5.0)
+        if self._watcher is not None:
+            await asyncio.to_thread(self._watcher.stop)
+            self._watcher = None
+        for worker in pool:
+            with contextlib.suppress(OSError):
+                worker.conn.close()
             worker.process.close()
-
-    def _discard(self, worker: _Worker, *, kill: bool) -> None:
-        """Forget a worker: stop reading it, and end its process."""
-        if not worker.gone and self._loop is not None:
-            with contextlib.suppress(ValueError, OSError):
-                self._loop.remove_reader(worker.conn.fileno())
-            with contextlib.suppress(ValueError, OSError):
-                self._loop.remove_reader(worker.process.sentinel)
-        worker.gone = True
-        if worker.timer is not None:
-            worker.timer.cancel()
-        if kill:
-            with contextlib.suppress(OSError, ValueError):
-                worker.process.kill()
-        else:
-            with contextlib.suppress(OSError, ValueError):
-                worker.conn.send(None)
-        with contextlib.suppress(OSError):
-            worker.conn.close()
 
     def _require_loop(self) -> asyncio.AbstractEventLoop:
         if self._loop is None or self._events is None:
@@ -291,6 +373,7 @@ class LocalBackend:
         if worker.stopping is not None and outcome.kind is not OutcomeKind.crashed:
             outcome = Outcome(worker.stopping, reason=self._why(worker.stopping, task))
         self._report(task.job_id, outcome)
+        self._dispatch()  # the worker is free
 
     @staticmethod
     def _why(kind: OutcomeKind, task: Task) -> str:
@@ -298,20 +381,9 @@ class LocalBackend:
             return f"stopped after exceeding the time limit of {task.timeout:g} s"
         return "stopped on request"
 
-    def _readable(self, worker: _Worker) -> None:
-        try:
-            while not worker.gone and worker.conn.poll():
-                self._handle(worker, worker.conn.recv())
-        except (EOFError, OSError):
-            # The worker is gone; its sentinel fires once its exit status is known.
-            with contextlib.suppress(ValueError, OSError):
-                self._require_loop().remove_reader(worker.conn.fileno())
-            return
-        self._dispatch()
-
     def _handle(self, worker: _Worker, msg: tuple[Any, ...]) -> None:
         kind, token = msg[0], msg[1]
-        if token != worker.token or worker.task is None:
+        if token != worker.token or worker.task is None or self._closing:
             return  # a late message of a task already reported
         if kind == "progress":
             assert self._events is not None
@@ -325,15 +397,11 @@ class LocalBackend:
             self._finish(worker, Outcome(OutcomeKind.error, reason=msg[2], seconds=msg[3]))
 
     def _died(self, worker: _Worker) -> None:
-        if worker.gone:
+        if worker.gone or self._closing:
             return
-        # Read what it sent before dying: a finished task must not count as crashed.
-        with contextlib.suppress(EOFError, OSError):
-            while worker.conn.poll():
-                self._handle(worker, worker.conn.recv())
-        worker.process.join(0)
+        worker.gone = True
+        worker.process.join(0)  # the sentinel fired: the exit status is there
         code = worker.process.exitcode
-        self._discard(worker, kill=True)
         if worker in self._pool:
             self._pool.remove(worker)
         if worker.task is not None:
@@ -346,10 +414,10 @@ class LocalBackend:
         log.warning("worker exited", extra={"pid": worker.process.pid, "exitcode": code})
         with contextlib.suppress(ValueError):
             worker.process.close()
-        if not self._closing:
-            spawn = self._require_loop().create_task(self._spawn())
-            self._spawns.add(spawn)  # a reference, or the task may be collected mid-flight
-            spawn.add_done_callback(self._spawns.discard)
+        spawn = self._require_loop().create_task(self._spawn())
+        self._spawns.add(spawn)  # a reference, or the task may be collected mid-flight
+        spawn.add_done_callback(self._spawns.discard)
+        self._dispatch()
 
 
 def _death(code: int | None) -> str:

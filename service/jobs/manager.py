@@ -118,7 +118,7 @@ class JobManager:
         record, created = self.store.create(job)
         if created:
             self.metrics.submitted.labels(process.id).inc()
-            log.info("job accepted", extra={"job_id": record.id, "process": process.id})
+            log.info("job accepted", extra={"job_id": record.id, "processID": process.id})
             self._dispatch(record.id, process.id, 1, prepared.inputs)
         return record, created
 
@@ -205,7 +205,11 @@ class JobManager:
             self.metrics.triangles.inc(int(outcome.meta.get("triangles", 0)))
             log.info(
                 "job successful",
-                extra={"job_id": job_id, "seconds": round(outcome.seconds, 4), **outcome.meta},
+                extra={
+                    "job_id": job_id,
+                    "seconds": round(outcome.seconds, 4),
+                    "figures": outcome.meta,
+                },
             )
 
     def _spawn(self, coro: Any) -> None:

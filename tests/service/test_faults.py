@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+import logging
 import time
 from pathlib import Path
 
@@ -11,6 +13,7 @@ import pytest
 
 from service.jobs.sqlite import SqliteJobStore
 from service.jobs.store import JobStatus, NewJob
+from service.logs import JsonFormatter
 
 from .conftest import SQUARE, ClientFactory, assert_problem, submit, wait_for
 
@@ -117,3 +120,23 @@ async def test_old_jobs_are_purged(make_client: ClientFactory) -> None:
         assert time.monotonic() < deadline, "the job was never purged"
         await anyio.sleep(0.05)
     assert_problem(r, 404, "no-such-job")
+
+
+async def test_logs_carry_the_job_id(
+    client: httpx.AsyncClient, caplog: pytest.LogCaptureFixture
+) -> None:
+    caplog.set_level(logging.INFO, logger="evomesh")
+    job = await submit(
+        client, "mesh", {"boundary": SQUARE, "size": 0.5, "smoothing": {"method": "none"}}
+    )
+    await wait_for(client, job["jobID"])
+    mine = [r for r in caplog.records if getattr(r, "job_id", None) == job["jobID"]]
+    messages = [r.getMessage() for r in mine]
+    assert "job accepted" in messages
+    assert "job started" in messages
+    deadline = time.monotonic() + 10
+    while "job successful" not in [r.getMessage() for r in caplog.records]:
+        assert time.monotonic() < deadline
+        await anyio.sleep(0.02)
+    lines = [JsonFormatter().format(r) for r in mine]
+    assert all(json.loads(line)["job_id"] == job["jobID"] for line in lines)
