@@ -6,8 +6,9 @@ out of memory) is noticed through its sentinel and replaced alone, which a
 
 The supervisor's state lives on the event loop. One watcher thread waits on every worker's pipe
 and sentinel and hands what it reads to the loop (``call_soon_threadsafe``), in order per worker:
-reading there keeps a large result off the loop, and works the same under any event loop (uvloop's
-``add_reader`` misses messages on multiprocessing's sockets).
+reading there keeps a large result off the loop, and works the same under any event loop (an
+earlier ``loop.add_reader`` design stalled under uvloop, which uvicorn uses by default; the
+contract suite runs on both loops).
 
 Cancellation crosses the process boundary through one shared integer per worker: the supervisor
 writes the running task's token there and the worker's ``should_stop()`` compares it, which costs a
