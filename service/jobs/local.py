@@ -69,7 +69,9 @@ def _worker_main(conn: Connection, stop: Any, warmup: bool) -> None:
         if msg is None:
             return
         token, runner_name, payload = msg
-        last = 0.0
+        # Counting from the start: a short job sends no progress at all (the supervisor has
+        # already marked it running), which spares a message and a store write per job.
+        last = time.monotonic()
 
         def progress(percent: int, message: str, token: int = token) -> None:
             nonlocal last

@@ -27,6 +27,9 @@ __all__ = ["JobManager", "request_digest"]
 
 log = logging.getLogger("evomesh.jobs")
 
+#: Results up to this size are stored from the event loop (a thread hop costs more).
+INLINE_RESULT_BYTES = 256 * 1024
+
 
 def request_digest(process: str, body: Any) -> str:
     """A digest of a request, for idempotency keys: same JSON value, same digest.
@@ -198,8 +201,10 @@ class JobManager:
 
     async def _succeeded(self, job_id: str, process: str, outcome: Outcome) -> None:
         data = outcome.data or b""
-        # A large result takes a while to write: not on the event loop.
-        done = await asyncio.to_thread(self.store.finish, job_id, data, outcome.meta)
+        if len(data) <= INLINE_RESULT_BYTES:
+            done = self.store.finish(job_id, data, outcome.meta)
+        else:  # a large result takes a while to write: not on the event loop
+            done = await asyncio.to_thread(self.store.finish, job_id, data, outcome.meta)
         if done:
             self.metrics.duration.labels(process).observe(outcome.seconds)
             self.metrics.triangles.inc(int(outcome.meta.get("triangles", 0)))

@@ -3,7 +3,6 @@ defaults), created together and followed together."""
 
 from __future__ import annotations
 
-import asyncio
 from typing import Any, Literal
 
 from fastapi import APIRouter, Depends, Request
@@ -18,6 +17,7 @@ from ..processes import Prepared, Process, Where, inputs_at
 from ..schemas import BatchInfo
 from ..settings import Settings
 from ..views import base_url, batch_info
+from .processes import off_loop_if_large
 
 router = APIRouter(prefix="/batches", tags=["Batches"], dependencies=[Depends(require_api_key)])
 
@@ -132,7 +132,7 @@ async def create_batch(
             kind="limit-exceeded",
             pointer="/features" if body.features is not None else "/requests",
         )
-    prepared = await asyncio.to_thread(_prepare_all, body, process, settings)
+    prepared = await off_loop_if_large(request, _prepare_all, body, process, settings)
     batch = manager.submit_batch(process, prepared)
     base = base_url(request)
     doc = batch_info(base, batch, manager.store.records(batch.job_ids))

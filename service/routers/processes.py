@@ -1,7 +1,8 @@
 """``/processes``: the process list, their OGC descriptions, and execution (always async)."""
 
 import asyncio
-from typing import Annotated, Any
+from collections.abc import Callable
+from typing import Annotated, Any, TypeVar
 
 from fastapi import APIRouter, Depends, Header, Request
 from fastapi.responses import JSONResponse
@@ -60,6 +61,21 @@ def _process_links(process: Process, base: str) -> list[dict[str, Any]]:
     ]
 
 
+#: Requests up to this size are validated on the event loop: a thread hop (and the GIL hand-over
+#: it causes) costs more than parsing a small region.
+INLINE_BYTES = 32 * 1024
+
+T = TypeVar("T")
+
+
+async def off_loop_if_large(request: Request, fn: Callable[..., T], *args: Any) -> T:
+    """``fn(*args)``, in a thread when the request body is large (parsing it takes a while)."""
+    size = int(request.headers.get("content-length") or INLINE_BYTES + 1)
+    if size <= INLINE_BYTES:
+        return fn(*args)
+    return await asyncio.to_thread(fn, *args)
+
+
 def _unknown(process_id: str, processes: dict[str, Process]) -> Problem:
     return Problem(
         404,
@@ -98,9 +114,8 @@ def _execute_route(router: APIRouter, process: Process) -> None:
         idempotency_key: IdempotencyKey = None,
     ) -> JSONResponse:
         request_body: ExecuteRequest = body
-        # Parsing and validating a large region takes a while: off the event loop.
-        prepared = await asyncio.to_thread(
-            process.prepare, request_body.inputs, settings, inputs_at("/inputs")
+        prepared = await off_loop_if_large(
+            request, process.prepare, request_body.inputs, settings, inputs_at("/inputs")
         )
         digest = (
             request_digest(process.id, request_body.model_dump(mode="json"))

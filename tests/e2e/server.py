@@ -45,7 +45,7 @@ def descendants(pid: int) -> dict[int, int]:
 class Server:
     """``evomesh serve`` as a subprocess; its log goes to a file in ``data_dir``."""
 
-    def __init__(self, data_dir: Path, workers: int = 1, **env: str) -> None:
+    def __init__(self, data_dir: Path, workers: int | None = 1, **env: str) -> None:
         self.data_dir = data_dir
         self.port = free_port()
         self.url = f"http://127.0.0.1:{self.port}"
@@ -53,7 +53,9 @@ class Server:
         data_dir.mkdir(parents=True, exist_ok=True)
         evomesh = str(Path(sys.executable).parent / "evomesh")
         cmd = [evomesh, "serve", "--host", "127.0.0.1", "--port", str(self.port)]
-        cmd += ["--data-dir", str(data_dir), "--workers", str(workers)]
+        cmd += ["--data-dir", str(data_dir)]
+        if workers is not None:  # None: the server's default (one per CPU)
+            cmd += ["--workers", str(workers)]
         self._log = self.log_path.open("wb")
         self.proc = subprocess.Popen(
             cmd, stdout=self._log, stderr=subprocess.STDOUT, env={**os.environ, **env}
