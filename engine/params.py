@@ -62,6 +62,8 @@ class PipelineParams:
     """Everything ``mesh_then_smooth`` needs besides the region and the random generator."""
 
     sizing: SizingParams
+    #: Sweeps of the mesher's constrained relaxation (:mod:`engine.relax`); 0 = raw front.
+    relax: int = 3
     swap: bool = True
     smoothing: SmoothingParams = field(default_factory=SmoothingParams)
 
