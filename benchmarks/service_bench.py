@@ -141,6 +141,7 @@ async def run(args: argparse.Namespace, url: str, server_pid: int) -> None:
         prober.start()
         procs = [server_pid, *descendants(server_pid)]
         cpu0 = {p: cpu_seconds(p) for p in procs}
+        mine0 = cpu_seconds(os.getpid())
         t0 = time.perf_counter()
         deadline = time.monotonic() + args.budget
         await asyncio.gather(
@@ -153,6 +154,7 @@ async def run(args: argparse.Namespace, url: str, server_pid: int) -> None:
         used = {p: cpu_seconds(p) - cpu0[p] for p in procs}
         server_cpu = used.pop(server_pid)
         worker_cpu = sum(used.values())
+        client_cpu = cpu_seconds(os.getpid()) - mine0
         # Lost: submitted but not successful, or successful without a result.
         lost = [j for j in load.submitted if load.ended.get(j) != "successful"]
         sem = asyncio.Semaphore(args.clients)
@@ -178,7 +180,11 @@ async def run(args: argparse.Namespace, url: str, server_pid: int) -> None:
     print(f"lost jobs            {len(lost) + missing} (failed {len(lost)}, no result {missing})")
     print(f"jobs in /jobs        {listed} (1 probe job + {listed - 1})")
     server_ms, worker_ms = 1000 * server_cpu / done, 1000 * worker_cpu / done
-    print(f"CPU per job          server {server_ms:.1f} ms, workers {worker_ms:.1f} ms")
+    client_ms = 1000 * client_cpu / done
+    print(
+        f"CPU per job          server {server_ms:.1f} ms, workers {worker_ms:.1f} ms, "
+        f"load clients {client_ms:.1f} ms"
+    )
 
 
 def main() -> None:

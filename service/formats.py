@@ -10,7 +10,6 @@ fitness as point data and triangle quality as cell data. Pictures (svg, png) reg
 
 from __future__ import annotations
 
-import json
 import tempfile
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -19,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import orjson
 
 __all__ = ["FORMATS", "ResultFormat", "StoredResult", "register_format"]
 
@@ -31,7 +31,7 @@ class StoredResult:
 
     @cached_property
     def doc(self) -> dict[str, Any]:
-        value: dict[str, Any] = json.loads(self.raw)
+        value: dict[str, Any] = orjson.loads(self.raw)
         return value
 
 
@@ -79,7 +79,7 @@ def _geojson(result: StoredResult, options: Mapping[str, str]) -> bytes:
                 "properties": props,
             }
         )
-    return json.dumps({"type": "FeatureCollection", "features": features}).encode()
+    return orjson.dumps({"type": "FeatureCollection", "features": features})
 
 
 def _meshio(file_format: str, suffix: str, **kwargs: Any) -> Renderer:

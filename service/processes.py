@@ -235,18 +235,26 @@ def _mesh_size(mesh: MeshDocumentInput, settings: Settings, where: Where) -> int
     return len(mesh.triangles)
 
 
+def _mesh_only(mesh: MeshDocumentInput) -> dict[str, Any]:
+    """The parts of a mesh document a job uses (a whole result document may be given)."""
+    return mesh.model_dump(include={"points", "triangles", "points_local"}, exclude_none=True)
+
+
 def _prepare_smooth(inputs: SmoothInputs, settings: Settings, where: Where) -> Prepared:
     triangles = _mesh_size(inputs.mesh, settings, where)
     smoothing = _smoothing(inputs.smoothing, where)
     _ga_work(smoothing, triangles, settings, where)
     resolved = inputs.model_dump(exclude_none=True)
+    resolved["mesh"] = _mesh_only(inputs.mesh)
     resolved["smoothing"] = smoothing
     return Prepared(resolved, smoothing["seed"], triangles)
 
 
 def _prepare_quality(inputs: QualityInputs, settings: Settings, where: Where) -> Prepared:
     triangles = _mesh_size(inputs.mesh, settings, where)
-    return Prepared(inputs.model_dump(exclude_none=True), None, triangles)
+    resolved = inputs.model_dump(exclude_none=True)
+    resolved["mesh"] = _mesh_only(inputs.mesh)
+    return Prepared(resolved, None, triangles)
 
 
 _MESH_OUTPUT = {

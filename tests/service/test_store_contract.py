@@ -240,3 +240,9 @@ def test_concurrent_writers_lose_nothing(store: JobStore) -> None:
         t.join()
     assert not errors
     assert store.counts()[JobStatus.running] == 160
+
+
+def test_inputs_keep_any_json_value(store: JobStore) -> None:
+    inputs = {"big": 10**30, "text": "é\u2028", "nested": [None, True, 1.5, {"k": []}]}
+    store.create(NewJob("j", "mesh", inputs))
+    assert store.inputs("j") == inputs
