@@ -28,7 +28,9 @@ def polyomino_regions(draw: st.DrawFn) -> Polygon:
     """Outlines of random connected sets of grid cells: non-convex, not star-shaped, with holes."""
     size = draw(st.integers(2, 6))
     cells = {(0, 0)}
-    steps = draw(st.lists(st.tuples(st.integers(-1, 1), st.integers(-1, 1)), min_size=3, max_size=30))
+    steps = draw(
+        st.lists(st.tuples(st.integers(-1, 1), st.integers(-1, 1)), min_size=3, max_size=30)
+    )
     x, y = 0, 0
     for dx, dy in steps:
         if dx and dy:
