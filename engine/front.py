@@ -32,18 +32,16 @@ from numpy.typing import NDArray
 
 from .cavity import fill_cavities
 from .discretize import Discretized
-from .errors import Cancelled, MeshingError
+from .errors import Cancelled, LimitExceeded, MeshingError
 from .mesh import Mesh
 from .result import StopFn
-from .sizing import SizeField, size_at
+from .sizing import SizeField, SizeTuple
+from .sizing import size_field_at as _size
 
 __all__ = ["advance_front"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
-SizeTuple = tuple[
-    float, float, float, FloatArray, FloatArray, float, float, float, int, int, IntArray, IntArray
-]
 
 # Slot table columns (LAYER: how many triangles separate the slot's edge from the boundary).
 VERT, NEXT, PREV, VER, FAIL, ALIVE, LAYER = 0, 1, 2, 3, 4, 5, 6
@@ -528,13 +526,6 @@ def _apply(
 # Choosing the triangle for a slot.
 
 
-@nb.njit(cache=True, inline="always")
-def _size(sf: SizeTuple, x: float, y: float) -> float:
-    return size_at(
-        x, y, sf[0], sf[1], sf[2], sf[3], sf[4], sf[5], sf[6], sf[7], sf[8], sf[9], sf[10], sf[11]
-    )
-
-
 @nb.njit(cache=True)
 def _try_apex(
     slots: IntArray, pts: FloatArray, hv: FloatArray, tris: IntArray, ghead: IntArray,
@@ -821,6 +812,7 @@ def advance_front(
     field: SizeField,
     should_stop: StopFn | None = None,
     budget: int = 50_000,
+    max_triangles: int = 5_000_000,
 ) -> Mesh:
     """Triangulate the region bounded by ``boundary`` following ``field``.
 
@@ -883,6 +875,12 @@ def advance_front(
             raise MeshingError("the advancing front ran out of room mid-update")
         if should_stop is not None and should_stop():
             raise Cancelled("stopped while meshing")
+        if st[NT] > max_triangles:
+            raise LimitExceeded(
+                f"meshing passed the limit of {max_triangles} triangles",
+                limit=max_triangles,
+                estimate=int(st[NT]),
+            )
     np_, nt = int(st[NP]), int(st[NT])
     pts_out = state.pts[:np_].copy()
     tris_out = state.tris[:nt].copy()

@@ -65,6 +65,8 @@ class PipelineParams:
     #: Sweeps of the mesher's constrained relaxation (:mod:`engine.relax`); 0 = raw front.
     relax: int = 3
     swap: bool = True
+    #: Refuse (``LimitExceeded``) regions whose estimated mesh is larger than this.
+    max_triangles: int = 5_000_000
     smoothing: SmoothingParams = field(default_factory=SmoothingParams)
 
     def to_dict(self) -> dict[str, Any]:

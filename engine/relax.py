@@ -24,6 +24,7 @@ BoolArray = NDArray[np.bool_]
 
 #: Nodes whose worst star triangle is below this quality also try the targeted move.
 TARGETED_BELOW = 0.8
+COMPASS_ITERATIONS = 12
 
 
 def node_stars(triangles: IntArray, n_points: int) -> tuple[IntArray, IntArray]:
@@ -83,15 +84,27 @@ def _relax(
                 p[v, 0], p[v, 1] = ox, oy
             if done or worst >= TARGETED_BELOW:
                 continue
-            # The centroid does not help the worst triangle: step toward the apex that would make
-            # that triangle equilateral, and keep the step only if the star's worst improves.
-            ix, iy = _ideal_apex(p, t, start, tri_of, v)
-            for step in (0.5, 0.25, 0.125):
-                p[v, 0], p[v, 1] = ox + step * (ix - ox), oy + step * (iy - oy)
-                if _star_worst(p, t, start, tri_of, v) > worst:
-                    moved += 1
-                    break
-                p[v, 0], p[v, 1] = ox, oy
+            # The centroid does not help the worst triangle: a compass search that maximises the
+            # star's worst quality (steps shrink from a third of the shortest star edge).
+            best = worst
+            step = _shortest_edge(p, t, start, tri_of, v) / 3.0
+            bx, by = ox, oy
+            for _ in range(COMPASS_ITERATIONS):
+                improved = False
+                for d in range(8):
+                    ang = d * math.pi / 4.0
+                    p[v, 0] = bx + step * math.cos(ang)
+                    p[v, 1] = by + step * math.sin(ang)
+                    q = _star_worst(p, t, start, tri_of, v)
+                    if q > best:
+                        best, nbx, nby, improved = q, p[v, 0], p[v, 1], True
+                if improved:
+                    bx, by = nbx, nby
+                else:
+                    step *= 0.5
+            p[v, 0], p[v, 1] = bx, by
+            if best > worst:
+                moved += 1
     return moved
 
 
@@ -104,28 +117,21 @@ def _star_worst(p: FloatArray, t: IntArray, start: IntArray, tri_of: IntArray, v
 
 
 @nb.njit(cache=True)
-def _ideal_apex(
+def _shortest_edge(
     p: FloatArray, t: IntArray, start: IntArray, tri_of: IntArray, v: int
-) -> tuple[float, float]:  # pragma: no cover - compiled
-    """Where ``v`` would make the worst triangle of its star equilateral."""
-    worst, wt = np.inf, -1
+) -> float:  # pragma: no cover - compiled
+    out = np.inf
     for k in range(start[v], start[v + 1]):
-        q = _q(p, t, tri_of[k])
-        if q < worst:
-            worst, wt = q, tri_of[k]
-    j = 0
-    while t[wt, j] != v:
-        j += 1
-    a, b = t[wt, (j + 1) % 3], t[wt, (j + 2) % 3]
-    # (a, b, v) is counter-clockwise, so v's side of a -> b is its left.
-    mx, my = 0.5 * (p[a, 0] + p[b, 0]), 0.5 * (p[a, 1] + p[b, 1])
-    dx, dy = p[b, 0] - p[a, 0], p[b, 1] - p[a, 1]
-    h = math.sqrt(3.0) / 2.0
-    return mx - dy * h, my + dx * h
+        tr = tri_of[k]
+        for j in range(3):
+            w = t[tr, j]
+            if w != v:
+                out = min(out, math.hypot(p[w, 0] - p[v, 0], p[w, 1] - p[v, 1]))
+    return out
 
 
 def relax(mesh: Mesh, sweeps: int = 3, fixed: BoolArray | None = None) -> Mesh:
-    """The mesh after ``sweeps`` of constrained Laplacian relaxation (boundary nodes fixed).
+    """The mesh after ``sweeps`` of constrained relaxation (boundary nodes fixed).
 
     >>> pts = np.array([[0.0, 0], [1, 0], [1, 1], [0, 1], [0.9, 0.8]])
     >>> tris = np.array([[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]])
