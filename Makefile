@@ -6,6 +6,8 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 # Debian packages the test suite needs (installed when missing and run as root).
 APT_PACKAGES :=
+# Debian libraries the gmsh wheel links against (for the side-by-side benchmarks).
+BENCH_APT_PACKAGES := libglu1-mesa libxcursor1 libxft2 libxinerama1 libgomp1
 PYTEST_ARGS ?=
 
 .PHONY: run test bench lint typecheck system-deps clean
@@ -41,6 +43,7 @@ test: $(STAMP) system-deps lint typecheck
 	$(BIN)/python -m pytest -n auto $(PYTEST_ARGS)
 
 bench: $(VENV)/.bench-installed
+	@$(MAKE) --no-print-directory system-deps APT_PACKAGES="$(BENCH_APT_PACKAGES)"
 	@set -e; for script in benchmarks/*_bench.py; do echo "== $$script"; $(BIN)/python $$script; done
 
 clean:

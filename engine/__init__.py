@@ -15,13 +15,21 @@ Arrays in, frozen dataclasses out; no web, storage or logging configuration here
 from __future__ import annotations
 
 from .boundary import PolygonPart, Region, make_region
-from .errors import Cancelled, EngineError, InvalidBoundary, InvalidMesh, MeshingError
+from .errors import (
+    Cancelled,
+    EngineError,
+    InvalidBoundary,
+    InvalidMesh,
+    LimitExceeded,
+    MeshingError,
+)
 from .fitness import FITNESS, node_fitness
 from .mesh import Mesh, validate_mesh
 from .params import PipelineParams, SizingParams, SmoothingParams
 from .pipeline import assess_mesh, mesh_region, mesh_then_smooth, smooth_mesh, warmup
 from .quality import METRICS, TriangleQuality, summarize, triangle_quality
 from .result import ProgressFn, Result, SmoothOutcome, Snapshot, StopFn, SweepStats
+from .sizing import estimate_triangles
 from .smoothing import SMOOTHERS
 
 __all__ = [
@@ -32,6 +40,7 @@ __all__ = [
     "EngineError",
     "InvalidBoundary",
     "InvalidMesh",
+    "LimitExceeded",
     "Mesh",
     "MeshingError",
     "PipelineParams",
@@ -47,6 +56,7 @@ __all__ = [
     "SweepStats",
     "TriangleQuality",
     "assess_mesh",
+    "estimate_triangles",
     "make_region",
     "mesh_region",
     "mesh_then_smooth",

@@ -22,6 +22,9 @@ __all__ = ["PolygonPart", "Region", "make_region", "signed_area"]
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
+#: Boundary pieces closer than this fraction of the region's extent count as touching.
+RELATIVE_TOLERANCE = 1e-7
+
 
 def signed_area(ring: FloatArray) -> float:
     """Shoelace area of an open ring: positive when counter-clockwise.
@@ -151,11 +154,16 @@ def _clean_ring(raw: RingInput, part: int, ring: int) -> tuple[FloatArray, IntAr
         raise InvalidBoundary(
             f"{where} vertex {v} has a non-finite coordinate", part=part, ring=ring, vertex=v
         )
+    # Consecutive vertices closer than the tolerance are repeats (e.g. a closing vertex written
+    # with rounding noise).
+    tol = RELATIVE_TOLERANCE * float(np.ptp(arr, axis=0).max())
     index = np.arange(len(arr), dtype=np.int64)
-    keep = np.ones(len(arr), dtype=bool)
-    keep[1:] = np.any(arr[1:] != arr[:-1], axis=1)
+    keep = [0]
+    for i in range(1, len(arr)):
+        if np.hypot(*(arr[i] - arr[keep[-1]])) > tol:
+            keep.append(i)
     arr, index = arr[keep], index[keep]
-    if len(arr) > 1 and np.all(arr[-1] == arr[0]):
+    if len(arr) > 1 and np.hypot(*(arr[-1] - arr[0])) <= tol:
         arr, index = arr[:-1], index[:-1]
     if len(np.unique(arr, axis=0)) < 3:
         raise InvalidBoundary(f"{where} has fewer than 3 distinct vertices", part=part, ring=ring)
@@ -255,17 +263,48 @@ def _check_holes(
 
 
 def _check_part_valid(part: int, poly: PolygonPart, maps: list[IntArray]) -> None:
-    """Last line of defence: whatever GEOS still finds invalid is reported as such."""
+    """Whatever GEOS finds invalid, also after snapping to :data:`RELATIVE_TOLERANCE` of the
+    region's size (pieces of boundary that nearly touch cannot be meshed), is reported with the
+    ring and vertex nearest to the problem."""
     shp = poly.to_shapely()
-    if shp.is_valid:
-        return
-    reason = shapely.is_valid_reason(shp)
+    reason = None if shp.is_valid else shapely.is_valid_reason(shp)
+    nearly = False
+    if reason is None:
+        span = float(np.ptp(poly.outer, axis=0).max())
+        snapped = shapely.set_precision(shp, RELATIVE_TOLERANCE * span, mode="pointwise")
+        if snapped.is_valid and abs(snapped.area - shp.area) <= 1e-6 * shp.area:
+            return
+        reason = shapely.is_valid_reason(snapped)
+        nearly = True
     at = _reason_point(reason)
+    if at is None:
+        raise InvalidBoundary(f"part {part} is not a valid polygon: {reason}", part=part)
+    ring, vertex = min(
+        ((r, _nearest_segment(ring, at)) for r, ring in enumerate(poly.rings)),
+        key=lambda rv: _segment_distance(poly.rings[rv[0]], rv[1], at),
+    )
+    what = (
+        "nearly touches itself (pieces of boundary closer than "
+        f"{RELATIVE_TOLERANCE:g} of the region's size)"
+        if nearly
+        else f"is not valid ({reason.split('[')[0]})"
+    )
     raise InvalidBoundary(
-        f"part {part} is not a valid polygon: {reason}",
+        f"{_where(part, ring)} {what} at ({at[0]:.6g}, {at[1]:.6g}) near vertex "
+        f"{int(maps[ring][vertex])}",
         part=part,
+        ring=ring,
+        vertex=int(maps[ring][vertex]),
         location=at,
     )
+
+
+def _segment_distance(ring: FloatArray, i: int, at: tuple[float, float]) -> float:
+    a, b = ring[i], ring[(i + 1) % len(ring)]
+    d = b - a
+    p = np.asarray(at)
+    t = float(np.clip(np.dot(p - a, d) / max(float(np.dot(d, d)), 1e-300), 0.0, 1.0))
+    return float(np.hypot(*(a + t * d - p)))
 
 
 def _check_parts_disjoint(polys: list[Polygon]) -> None:

@@ -60,9 +60,32 @@ def rings_from_edges(points: FloatArray, edges: IntArray) -> list[list[int]]:
                 return (back - ang) % (2 * math.pi) or 2 * math.pi
 
             e = min(choices, key=clockwise_from_back)
-        if len(ring) >= 3:
-            rings.append(ring)
+        rings.extend(r for r in _split_at_repeats(ring) if len(r) >= 3)
     return rings
+
+
+def _split_at_repeats(ring: list[int]) -> list[list[int]]:
+    """Split a closed ring that passes a vertex twice into simple rings.
+
+    >>> _split_at_repeats([0, 1, 2, 0, 3, 4])
+    [[0, 1, 2], [0, 3, 4]]
+    """
+    out: list[list[int]] = []
+    stack: list[int] = []
+    seen: dict[int, int] = {}
+    for v in ring:
+        if v in seen:
+            cut = seen[v]
+            loop = stack[cut:]
+            out.append(loop)
+            for w in loop[1:]:
+                del seen[w]
+            del stack[cut + 1 :]
+        else:
+            seen[v] = len(stack)
+            stack.append(v)
+    out.append(stack)
+    return out
 
 
 def _signed_area(xy: FloatArray) -> float:

@@ -5,7 +5,14 @@ The service turns these into problem+json in one place; the CLI prints their mes
 
 from __future__ import annotations
 
-__all__ = ["Cancelled", "EngineError", "InvalidBoundary", "InvalidMesh", "MeshingError"]
+__all__ = [
+    "Cancelled",
+    "EngineError",
+    "InvalidBoundary",
+    "InvalidMesh",
+    "LimitExceeded",
+    "MeshingError",
+]
 
 
 class EngineError(Exception):
@@ -63,3 +70,13 @@ class MeshingError(EngineError, RuntimeError):
 
 class Cancelled(EngineError):
     """The caller's ``should_stop()`` returned true; the computation stopped early."""
+
+
+class LimitExceeded(EngineError, ValueError):
+    """The work asked for is over a limit (e.g. the mesh would have too many triangles)."""
+
+    def __init__(self, message: str, *, limit: int, estimate: int) -> None:
+        super().__init__(message)
+        self.message = message
+        self.limit = limit
+        self.estimate = estimate

@@ -94,7 +94,11 @@ class PipelineParams:
     """Everything ``mesh_then_smooth`` needs besides the region and the random generator."""
 
     sizing: SizingParams
+    #: Sweeps of the mesher's constrained relaxation (:mod:`engine.relax`); 0 = raw front.
+    relax: int = 3
     swap: bool = True
+    #: Refuse (``LimitExceeded``) regions whose estimated mesh is larger than this.
+    max_triangles: int = 5_000_000
     smoothing: SmoothingParams = field(default_factory=SmoothingParams)
 
     def to_dict(self) -> dict[str, Any]:

@@ -10,14 +10,15 @@ import numpy as np
 
 from .boundary import Region
 from .discretize import discretize
-from .errors import Cancelled
+from .errors import Cancelled, LimitExceeded
 from .fitness import node_fitness
 from .front import advance_front
 from .mesh import Mesh
 from .params import PipelineParams, SizingParams, SmoothingParams
 from .quality import summarize, triangle_quality
+from .relax import relax
 from .result import ProgressFn, Result, Snapshot, StopFn
-from .sizing import build_size_field
+from .sizing import build_size_field, estimate_triangles
 from .smoothing import SMOOTHERS, smooth_points
 from .swap import swap_diagonals
 
@@ -57,14 +58,32 @@ def assess_mesh(mesh: Mesh, smoothing: SmoothingParams | None = None) -> Snapsho
 
 
 def mesh_region(
-    region: Region, sizing: SizingParams, should_stop: StopFn | None = None
+    region: Region,
+    sizing: SizingParams,
+    relax_sweeps: int = 3,
+    should_stop: StopFn | None = None,
+    max_triangles: int = 5_000_000,
 ) -> tuple[Mesh, dict[str, float]]:
-    """Mesh ``region`` (no swapping, no smoothing); returns the mesh and stage timings."""
+    """Mesh ``region`` (no swapping, no smoothing); returns the mesh and stage timings.
+
+    The mesher is the advancing front followed by ``relax_sweeps`` sweeps of constrained
+    relaxation (0 gives the raw front). Raises :class:`LimitExceeded` when the estimated (or,
+    while meshing, the actual) triangle count is over ``max_triangles``.
+    """
     t0 = time.perf_counter()
     field = build_size_field(region, sizing)
+    estimate = estimate_triangles(region, field)
+    if estimate > max_triangles:
+        raise LimitExceeded(
+            f"the mesh would have about {estimate} triangles, over the limit of {max_triangles}; "
+            "use a larger size",
+            limit=max_triangles,
+            estimate=estimate,
+        )
     boundary = discretize(region, field)
     t1 = time.perf_counter()
-    mesh = advance_front(boundary, field, should_stop)
+    front = advance_front(boundary, field, should_stop, max_triangles=max_triangles)
+    mesh = relax(front, relax_sweeps)
     t2 = time.perf_counter()
     return mesh, {"boundary": t1 - t0, "mesh": t2 - t1}
 
@@ -137,7 +156,9 @@ def mesh_then_smooth(
     _check_method(params.smoothing)
     started = time.perf_counter()
     progress("boundary", 0.0)
-    mesh, timings = mesh_region(region, params.sizing, should_stop)
+    mesh, timings = mesh_region(
+        region, params.sizing, params.relax, should_stop, params.max_triangles
+    )
     progress("mesh", 1.0)
     return _improve(
         mesh, params.smoothing, params.swap, rng, progress, should_stop, timings,

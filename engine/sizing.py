@@ -27,10 +27,22 @@ from numpy.typing import NDArray
 from .boundary import Region
 from .params import SizingParams
 
-__all__ = ["GAP_FACTOR", "SizeField", "build_size_field"]
+__all__ = [
+    "GAP_FACTOR",
+    "SizeField",
+    "SizeTuple",
+    "build_size_field",
+    "estimate_triangles",
+    "size_at",
+    "size_field_at",
+]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
+#: The size field as numba kernels take it (see :meth:`SizeField.as_tuple`).
+SizeTuple = tuple[
+    float, float, float, FloatArray, FloatArray, float, float, float, int, int, IntArray, IntArray
+]
 
 #: Size asked for by a narrow gap, as a fraction of its width (two rows of triangles across).
 GAP_FACTOR = 0.6
@@ -39,6 +51,9 @@ GAP_FACTOR = 0.6
 _FACING_COS = 0.5
 _SHARP_CORNER_DEG = 60.0
 _MAX_GRID_CELLS = 1 << 21
+_MAX_GAP_SAMPLES = 4_000_000
+#: Triangles per unit area of an equilateral mesh with edge h are 1 / (EQUILATERAL_AREA * h^2).
+EQUILATERAL_AREA = math.sqrt(3.0) / 4.0
 
 
 @dataclass(frozen=True)
@@ -150,6 +165,14 @@ def size_at(
             if v < h:
                 h = v
     return max(h, size_min)
+
+
+@nb.njit(cache=True, inline="always")
+def size_field_at(sf: SizeTuple, x: float, y: float) -> float:
+    """The size field at one point, from :meth:`SizeField.as_tuple` (numba)."""
+    return size_at(
+        x, y, sf[0], sf[1], sf[2], sf[3], sf[4], sf[5], sf[6], sf[7], sf[8], sf[9], sf[10], sf[11]
+    )
 
 
 @nb.njit(cache=True, nogil=True)
@@ -296,36 +319,39 @@ def _gap_sizes(
 
 
 def _gap_features(region: Region, size: float) -> tuple[FloatArray, FloatArray]:
-    """Features from narrow gaps, sampled densely enough to resolve each gap."""
+    """Features from narrow gaps, sampled by bisecting each segment where a gap asks for finer
+    spacing than the samples have, so a pinch costs samples only near the pinch."""
     a, b, prev, nxt = _ring_segments(region)
     seg = b - a
     length = np.hypot(seg[:, 0], seg[:, 1])
     normal = np.stack([-seg[:, 1], seg[:, 0]], axis=1) / np.maximum(length, 1e-300)[:, None]
     tree = shapely.STRtree(shapely.linestrings(np.stack([a, b], axis=1)))
     reach = size / GAP_FACTOR
-    # Samples as (segment, parameter); refined where a gap asks for finer spacing than sampled.
-    spacing = np.minimum(size / 2.0, length / 2.0)
-    counts = np.maximum(np.ceil(length / np.maximum(spacing, 1e-300)).astype(np.int64), 1)
+    # Intervals (segment, t0, t1) of parameter space, first no longer than size / 2.
+    counts = np.maximum(np.ceil(2.0 * length / size).astype(np.int64), 1)
+    seg_id = np.repeat(np.arange(len(a)), counts)
+    first = np.cumsum(counts) - counts
+    k = np.arange(len(seg_id)) - np.repeat(first, counts)
+    t0 = k / counts[seg_id]
+    t1 = (k + 1) / counts[seg_id]
     found_xy: list[FloatArray] = []
     found_h: list[FloatArray] = []
-    for _ in range(24):
-        seg_id = np.repeat(np.arange(len(a)), counts)
-        first = np.cumsum(counts) - counts
-        k = np.arange(len(seg_id)) - np.repeat(first, counts)
-        t = (k + 0.5) / counts[seg_id]
-        pts = a[seg_id] + t[:, None] * seg[seg_id]
+    total = 0
+    for _ in range(64):
+        if len(seg_id) == 0 or total > _MAX_GAP_SAMPLES:
+            break
+        mid = 0.5 * (t0 + t1)
+        pts = a[seg_id] + mid[:, None] * seg[seg_id]
         h = _gap_sizes(pts, normal[seg_id], seg_id, a, b, prev, nxt, tree, reach)
+        total += len(pts)
         hit = np.isfinite(h)
         found_xy.append(pts[hit])
         found_h.append(h[hit])
-        # A segment is resolved when its sample spacing is no more than the size it asks for.
-        step = length / counts
-        need = np.full(len(a), np.inf)
-        np.minimum.at(need, seg_id[hit], h[hit])
-        coarse = step > need
-        if not coarse.any():
-            break
-        counts = np.where(coarse, np.minimum(counts * 2, 1 << 22), counts)
+        # Bisect intervals longer than the size their sample asks for.
+        fine = (t1 - t0) * length[seg_id] > h
+        seg_id, t0, t1, mid = seg_id[fine], t0[fine], t1[fine], mid[fine]
+        seg_id = np.concatenate([seg_id, seg_id])
+        t0, t1 = np.concatenate([t0, mid]), np.concatenate([mid, t1])
     xy = np.concatenate(found_xy) if found_xy else np.empty((0, 2))
     hh = np.concatenate(found_h) if found_h else np.empty(0)
     return xy, hh
@@ -383,3 +409,44 @@ def build_size_field(region: Region, params: SizingParams) -> SizeField:
         size, slope, size_min, np.ascontiguousarray(fxy), np.ascontiguousarray(fh),
         np.array([x0, y0]), cell, (nx, ny), start, items,
     )  # fmt: skip
+
+
+def estimate_triangles(region: Region, field: SizeField, max_cells: int = 1 << 20) -> int:
+    """Expected triangle count: the integral of ``1 / (sqrt(3)/4 h^2)`` over the region.
+
+    Integrated on an adaptive quadtree whose cells are split while they are larger than the
+    size at their centre, so small features are counted too.
+
+    >>> from engine.boundary import make_region
+    >>> square = make_region([([[0, 0], [1, 0], [1, 1], [0, 1]], [])])
+    >>> estimate_triangles(square, build_size_field(square, SizingParams(size=0.1)))
+    231
+    """
+    shape = region.to_shapely()
+    shapely.prepare(shape)
+    x0, y0, x1, y1 = region.bounds
+    cell = field.size
+    nx = max(math.ceil((x1 - x0) / cell), 1)
+    ny = max(math.ceil((y1 - y0) / cell), 1)
+    while nx * ny > max_cells:
+        cell *= 2.0
+        nx, ny = max(math.ceil((x1 - x0) / cell), 1), max(math.ceil((y1 - y0) / cell), 1)
+    gx, gy = np.meshgrid(x0 + cell * (np.arange(nx) + 0.5), y0 + cell * (np.arange(ny) + 0.5))
+    centres = np.c_[gx.ravel(), gy.ravel()]
+    total = 0.0
+    while len(centres):
+        h = field(centres)
+        split = h < 0.5 * cell
+        if len(centres) + 3 * int(split.sum()) > max_cells:
+            split[:] = False  # out of cells: count the rest at their centre size
+        keep = ~split
+        # A leaf counts its area inside the region, sampled at its centre.
+        inside = shapely.contains_xy(shape, centres[keep, 0], centres[keep, 1])
+        total += float(np.sum(cell * cell / (EQUILATERAL_AREA * h[keep][inside] ** 2)))
+        quarter = 0.25 * cell
+        c = centres[split]
+        centres = np.concatenate(
+            [c + np.array([dx, dy]) * quarter for dx in (-1, 1) for dy in (-1, 1)]
+        ) if len(c) else np.empty((0, 2))  # fmt: skip
+        cell *= 0.5
+    return round(total)

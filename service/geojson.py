@@ -121,6 +121,10 @@ def _parts(obj: Any, ptr: str) -> tuple[list[tuple[_Part, tuple[str, ...]]], dic
     kind = obj.get("type")
     if kind == "Feature":
         props = obj.get("properties") or {}
+        if not isinstance(props, dict):
+            raise BoundaryInputError(
+                "a Feature's properties must be an object or null", f"{ptr}/properties"
+            )
         if obj.get("geometry") is None:
             raise BoundaryInputError("the Feature has no geometry", f"{ptr}/geometry")
         return _geometry(obj["geometry"], f"{ptr}/geometry"), dict(props)

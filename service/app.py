@@ -1,0 +1,119 @@
+"""The FastAPI application factory.
+
+>>> from service.settings import Settings
+>>> app = create_app(Settings(workers=1, _env_file=None))
+>>> app.title
+'evomesh'
+"""
+
+from __future__ import annotations
+
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
+from typing import Any
+
+from fastapi import FastAPI
+from fastapi.middleware.cors import CORSMiddleware
+
+from . import problems
+from .jobs.backend import ComputeBackend, make_backend
+from .jobs.manager import JobManager
+from .jobs.sqlite import SqliteJobStore
+from .jobs.store import JobStore
+from .metrics import Metrics
+from .middleware import BodyLimit
+from .processes import PROCESSES, Process
+from .routers import batches, jobs, landing
+from .routers.processes import build_router
+from .settings import Settings
+
+__all__ = ["create_app"]
+
+_PROBLEM_REF = {"$ref": "#/components/schemas/ProblemDetails"}
+
+
+def create_app(
+    settings: Settings,
+    *,
+    processes: dict[str, Process] | None = None,
+    store: JobStore | None = None,
+    backend: ComputeBackend | None = None,
+) -> FastAPI:
+    """The service. The store and backend are built from ``settings`` unless given; both are
+    started and stopped by the app's lifespan."""
+    procs = PROCESSES if processes is None else processes
+
+    @asynccontextmanager
+    async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        job_store = store if store is not None else _open_store(settings)
+        compute = backend if backend is not None else make_backend(settings)
+        manager = JobManager(job_store, compute, settings, app.state.metrics, procs)
+        collector = app.state.metrics.watch(job_store.counts, compute.stats)
+        await manager.start()
+        app.state.manager = manager
+        try:
+            yield
+        finally:
+            app.state.manager = None
+            await manager.close()
+            app.state.metrics.registry.unregister(collector)
+            if store is None:
+                job_store.close()
+
+    app = FastAPI(
+        title="evomesh",
+        summary="Triangular meshing with genetic-algorithm smoothing (OGC API - Processes)",
+        version="1.0.0",
+        lifespan=lifespan,
+    )
+    app.state.settings = settings
+    app.state.metrics = Metrics()
+    app.state.manager = None
+    problems.install(app)
+    app.include_router(landing.router)
+    app.include_router(build_router(procs))
+    app.include_router(jobs.router)
+    app.include_router(batches.router)
+    if settings.cors_origins:
+        app.add_middleware(
+            CORSMiddleware,
+            allow_origins=settings.cors_origins,
+            allow_methods=["GET", "POST", "DELETE"],
+            allow_headers=["Content-Type", "Authorization", "X-API-Key", "Idempotency-Key"],
+            expose_headers=["Location"],
+        )
+    app.add_middleware(BodyLimit, max_bytes=settings.max_body_bytes)
+    _document_problems(app)
+    return app
+
+
+def _open_store(settings: Settings) -> JobStore:
+    return SqliteJobStore(settings.database)
+
+
+def _document_problems(app: FastAPI) -> None:
+    """Every error response of the OpenAPI document is problem+json (that is what we send)."""
+    build = app.openapi
+
+    def openapi() -> dict[str, Any]:
+        if app.openapi_schema is not None:
+            return app.openapi_schema
+        schema = build()
+        from .schemas import ProblemDetails
+
+        components = schema.setdefault("components", {}).setdefault("schemas", {})
+        components["ProblemDetails"] = ProblemDetails.model_json_schema()
+        for name in ("HTTPValidationError", "ValidationError"):
+            components.pop(name, None)
+        for path in schema.get("paths", {}).values():
+            for operation in path.values():
+                responses = operation.setdefault("responses", {})
+                for code in ("422", "default"):
+                    responses.setdefault(code, {"description": "a problem"})
+                for code, response in responses.items():
+                    if code == "default" or int(code) >= 400:
+                        response["content"] = {"application/problem+json": {"schema": _PROBLEM_REF}}
+        app.openapi_schema = schema
+        return schema
+
+    app.openapi = openapi  # type: ignore[method-assign]

@@ -1,0 +1,224 @@
+"""Request models: the inputs of each process and the OGC execute request around them.
+
+The OGC process descriptions are generated from these models, so the documentation cannot drift
+from validation. Defaults come from the engine's parameter dataclasses; the smoothing methods and
+fitness functions are checked against the engine's registries when a request arrives, so a method
+added to ``engine.SMOOTHERS`` becomes valid without a change here.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal
+
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field
+
+import engine
+from engine import SizingParams, SmoothingParams
+
+__all__ = [
+    "BOUNDARY_SCHEMA",
+    "ExecuteRequest",
+    "MeshDocumentInput",
+    "MeshExecute",
+    "MeshInputs",
+    "QualityExecute",
+    "QualityInputs",
+    "SmoothExecute",
+    "SmoothInputs",
+    "SmoothingInput",
+]
+
+_S = SmoothingParams()
+_STRICT = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+_POSITION = {"type": "array", "items": {"type": "number"}, "minItems": 2, "maxItems": 3}
+_RING = {"type": "array", "items": _POSITION, "minItems": 3}
+_POLYGON = {"type": "array", "items": _RING, "minItems": 1}
+_GEOMETRY = {
+    "anyOf": [
+        {
+            "type": "object",
+            "required": ["type", "coordinates"],
+            "properties": {"type": {"const": "Polygon"}, "coordinates": _POLYGON},
+        },
+        {
+            "type": "object",
+            "required": ["type", "coordinates"],
+            "properties": {
+                "type": {"const": "MultiPolygon"},
+                "coordinates": {"type": "array", "items": _POLYGON, "minItems": 1},
+            },
+        },
+    ]
+}
+_FEATURE = {
+    "type": "object",
+    "required": ["type", "geometry"],
+    "properties": {
+        "type": {"const": "Feature"},
+        "geometry": _GEOMETRY,
+        "properties": {"type": ["object", "null"]},
+    },
+}
+#: What ``boundary`` accepts (checked by :func:`service.geojson.parse_region`).
+BOUNDARY_SCHEMA: dict[str, Any] = {
+    "description": (
+        "The region: a GeoJSON Polygon, MultiPolygon, Feature or FeatureCollection (all its "
+        'polygons form one multi-part region), or {"outer": ring, "holes": [ring, ...]}. '
+        "Rings are lists of [x, y] positions, open or closed, either winding."
+    ),
+    "anyOf": [
+        *_GEOMETRY["anyOf"],
+        _FEATURE,
+        {
+            "type": "object",
+            "required": ["type", "features"],
+            "properties": {
+                "type": {"const": "FeatureCollection"},
+                "features": {"type": "array", "items": _FEATURE, "minItems": 1},
+            },
+        },
+        {
+            "type": "object",
+            "required": ["outer"],
+            "properties": {"outer": _RING, "holes": {"type": "array", "items": _RING}},
+        },
+    ],
+}
+
+
+def _choices(registry: dict[str, Any]) -> Any:
+    """A schema hook listing a registry's names when the schema is generated."""
+
+    def extra(schema: dict[str, Any]) -> None:
+        schema["enum"] = sorted(registry)
+
+    return extra
+
+
+def _known(registry: dict[str, Any], what: str) -> Any:
+    def check(value: str) -> str:
+        if value not in registry:
+            raise ValueError(f"unknown {what} {value!r}; choose one of {sorted(registry)}")
+        return value
+
+    return check
+
+
+Method = Annotated[
+    str,
+    AfterValidator(_known(engine.SMOOTHERS, "smoothing method")),
+    Field(description="smoother: a name of engine.SMOOTHERS"),
+    Field(json_schema_extra=_choices(engine.SMOOTHERS)),
+]
+Fitness = Annotated[
+    str,
+    AfterValidator(_known(engine.FITNESS, "fitness function")),
+    Field(description="node fitness function", json_schema_extra=_choices(engine.FITNESS)),
+]
+
+
+class SmoothingInput(BaseModel):
+    """Smoothing parameters (the paper's GA defaults) and the random seed."""
+
+    model_config = _STRICT
+
+    method: Method = _S.method
+    fitness: Fitness = _S.fitness
+    alpha: float = Field(_S.alpha, ge=0, le=1, description="weight of the angle term")
+    beta: float = Field(_S.beta, ge=0, le=1, description="weight of the aspect-ratio term")
+    population: int = Field(_S.population, ge=2, le=10_000, description="candidates per node")
+    generations: int = Field(_S.generations, ge=1, le=10_000, description="generations per node")
+    crossover_rate: float = Field(_S.crossover_rate, ge=0, le=1)
+    mutation_rate: float = Field(_S.mutation_rate, ge=0, le=1)
+    tolerance: float = Field(_S.tolerance, ge=0, description="stop when a sweep changes less")
+    max_sweeps: int = Field(_S.max_sweeps, ge=1, le=10_000, description="most GA sweeps")
+    iterations: int = Field(_S.iterations, ge=1, le=10_000, description="Laplacian sweeps")
+    threshold: float | None = Field(
+        _S.threshold, ge=0, le=1, description="evolve only nodes with fitness below this"
+    )
+    seed: int | None = Field(
+        None,
+        ge=0,
+        le=2**63 - 1,
+        description="random seed; when absent the service chooses one and stores it with the job",
+    )
+
+
+_SIZING = SizingParams(size=1.0)
+
+
+class MeshInputs(BaseModel):
+    """Inputs of the ``mesh`` process."""
+
+    model_config = _STRICT
+
+    boundary: Any = Field(json_schema_extra=BOUNDARY_SCHEMA)
+    coordinates: Literal["planar", "wgs84"] = Field(
+        "planar", description="wgs84: lon/lat, projected to a local metric frame (metres)"
+    )
+    size: float | None = Field(
+        None, gt=0, description="target edge length; default: the Feature's `h` property"
+    )
+    growth: float = Field(_SIZING.growth, gt=1, le=100, description="largest neighbour size ratio")
+    size_min: float | None = Field(None, gt=0, description="lower clamp of the local size")
+    size_max: float | None = Field(None, gt=0, description="upper clamp of the local size")
+    swap: bool = Field(True, description="improve connectivity by diagonal swapping")
+    smoothing: SmoothingInput = Field(default_factory=SmoothingInput)
+
+
+Index = Annotated[int, Field(ge=0, le=2**31 - 1)]
+
+
+class MeshDocumentInput(BaseModel):
+    """A mesh: ``points`` and counter-clockwise, 0-based ``triangles`` (a mesh document)."""
+
+    model_config = ConfigDict(extra="allow", allow_inf_nan=False)
+
+    points: list[Annotated[list[float], Field(min_length=2, max_length=2)]] = Field(min_length=3)
+    triangles: list[Annotated[list[Index], Field(min_length=3, max_length=3)]] = Field(min_length=1)
+    points_local: list[Annotated[list[float], Field(min_length=2, max_length=2)]] | None = None
+
+
+class SmoothInputs(BaseModel):
+    """Inputs of the ``smooth`` process."""
+
+    model_config = _STRICT
+
+    mesh: MeshDocumentInput
+    swap: bool = Field(True, description="improve connectivity by diagonal swapping first")
+    smoothing: SmoothingInput = Field(default_factory=SmoothingInput)
+
+
+class QualityInputs(BaseModel):
+    """Inputs of the ``quality`` process."""
+
+    model_config = _STRICT
+
+    mesh: MeshDocumentInput
+    fitness: Fitness = _S.fitness
+    alpha: float = Field(_S.alpha, ge=0, le=1)
+    beta: float = Field(_S.beta, ge=0, le=1)
+
+
+class ExecuteRequest(BaseModel):
+    """The OGC execute request; ``outputs`` and ``response`` are accepted, the result is always
+    the mesh document (``GET /jobs/{jobID}/results``)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    inputs: BaseModel
+    outputs: dict[str, Any] | None = None
+    response: Literal["document", "raw"] | None = None
+
+
+class MeshExecute(ExecuteRequest):
+    inputs: MeshInputs
+
+
+class SmoothExecute(ExecuteRequest):
+    inputs: SmoothInputs
+
+
+class QualityExecute(ExecuteRequest):
+    inputs: QualityInputs

@@ -1,0 +1,433 @@
+"""The local backend: a supervisor of worker processes on this machine.
+
+Each worker is a plain ``multiprocessing`` process with its own pipe, so one that dies (killed,
+out of memory) is noticed through its sentinel and replaced alone, which a
+``ProcessPoolExecutor`` cannot do: it breaks whole when one of its workers dies.
+
+The supervisor's state lives on the event loop. One watcher thread waits on every worker's pipe
+and sentinel and hands what it reads to the loop (``call_soon_threadsafe``), in order per worker:
+reading there keeps a large result off the loop, and works the same under any event loop (an
+earlier ``loop.add_reader`` design stalled under uvloop, which uvicorn uses by default; the
+contract suite runs on both loops).
+
+Cancellation crosses the process boundary through one shared integer per worker: the supervisor
+writes the running task's token there and the worker's ``should_stop()`` compares it, which costs a
+memory read. A task that does not stop within the grace period has its worker killed.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import itertools
+import logging
+import multiprocessing
+import os
+import signal
+import threading
+import time
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass
+from multiprocessing.connection import Connection, wait
+from multiprocessing.process import BaseProcess
+from typing import Any
+
+from .backend import BackendStats, Events, Outcome, OutcomeKind, Task, TaskError, resolve_runner
+
+__all__ = ["LocalBackend"]
+
+log = logging.getLogger("evomesh.worker")
+
+#: Progress messages a worker sends at most this often (seconds); the store need not see more.
+PROGRESS_INTERVAL = 0.2
+
+
+def _context() -> Any:
+    """forkserver where available: workers start in milliseconds from a clean, preloaded parent
+    (forking the service itself would copy its threads and sockets)."""
+    if "forkserver" in multiprocessing.get_all_start_methods():
+        ctx = multiprocessing.get_context("forkserver")
+        ctx.set_forkserver_preload(["engine", "service.jobs.runners"])
+        return ctx
+    return multiprocessing.get_context("spawn")
+
+
+def _worker_main(conn: Connection, stop: Any, warmup: bool) -> None:
+    """A worker: run tasks from ``conn`` until told to stop or the pipe closes."""
+    # Ctrl-C in a terminal reaches the whole process group; the supervisor decides when we stop.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if warmup:
+        import engine
+
+        engine.warmup()  # numba kernels load from cache now, not during the first job
+    while True:
+        try:
+            msg = conn.recv()
+        except (EOFError, OSError):
+            return
+        if msg is None:
+            return
+        token, runner_name, payload = msg
+        # Counting from the start: a short job sends no progress at all (the supervisor has
+        # already marked it running), which spares a message and a store write per job.
+        last = time.monotonic()
+
+        def progress(percent: int, message: str, token: int = token) -> None:
+            nonlocal last
+            now = time.monotonic()
+            if now - last >= PROGRESS_INTERVAL:
+                last = now
+                conn.send(("progress", token, int(percent), str(message)))
+
+        def should_stop(token: int = token) -> bool:
+            return bool(stop.value == token)
+
+        t0 = time.perf_counter()
+        try:
+            data, meta = resolve_runner(runner_name)(payload, progress, should_stop)
+            reply: tuple[Any, ...] = ("done", token, data, meta)
+        except Exception as exc:
+            if should_stop():
+                reply = ("cancelled", token, "stopped on request")
+            elif isinstance(exc, TaskError):
+                reply = ("error", token, str(exc))
+            else:
+                reply = ("error", token, f"internal error: {type(exc).__name__}: {exc}")
+        try:
+            conn.send((*reply, time.perf_counter() - t0))
+        except (BrokenPipeError, OSError):
+            return
+
+
+@dataclass(eq=False)
+class _Worker:
+    process: BaseProcess
+    conn: Connection
+    stop: Any  #: shared int: token of the task to stop
+    sentinel: int = -1
+    task: Task | None = None
+    token: int = 0
+    started: float = 0.0
+    stopping: OutcomeKind | None = None  #: cancelled or timeout, once asked to stop
+    timer: asyncio.TimerHandle | None = None
+    gone: bool = False  #: its death was handled (loop side)
+
+
+class _Watcher:
+    """A thread that reads the workers' pipes and notices their deaths."""
+
+    def __init__(
+        self,
+        loop: asyncio.AbstractEventLoop,
+        on_message: Callable[[_Worker, tuple[Any, ...]], None],
+        on_death: Callable[[_Worker], None],
+    ) -> None:
+        self._loop = loop
+        self._on_message = on_message
+        self._on_death = on_death
+        self._lock = threading.Lock()
+        self._workers: list[_Worker] = []
+        self._wake_r, self._wake_w = os.pipe()
+        self._stopped = False
+        self._thread = threading.Thread(target=self._run, name="evomesh-workers", daemon=True)
+        self._thread.start()
+
+    def add(self, worker: _Worker) -> None:
+        with self._lock:
+            self._workers.append(worker)
+        self._wake()
+
+    def _wake(self) -> None:
+        with contextlib.suppress(OSError):
+            os.write(self._wake_w, b"x")
+
+    def stop(self) -> None:
+        self._stopped = True
+        self._wake()
+        self._thread.join(10)
+        for fd in (self._wake_r, self._wake_w):
+            with contextlib.suppress(OSError):
+                os.close(fd)
+
+    def _post(self, fn: Callable[..., None], *args: Any) -> None:
+        with contextlib.suppress(RuntimeError):  # the loop is closed: nobody listens any more
+            self._loop.call_soon_threadsafe(fn, *args)
+
+    def _run(self) -> None:
+        while not self._stopped:
+            with self._lock:
+                workers = list(self._workers)
+            owners: dict[Any, _Worker] = {}
+            for w in workers:
+                owners[w.conn] = w
+                owners[w.sentinel] = w
+            ready = wait([self._wake_r, *owners])
+            if self._stopped:
+                return
+            for obj in ready:
+                if obj == self._wake_r:
+                    os.read(self._wake_r, 4096)
+                    continue
+                worker = owners[obj]
+                if obj is worker.conn:
+                    self._read(worker, once=True)
+                else:
+                    self._read(worker, once=False)  # what it sent before dying comes first
+                    with self._lock:
+                        self._workers.remove(worker)
+                    with contextlib.suppress(OSError):
+                        worker.conn.close()
+                    self._post(self._on_death, worker)
+
+    def _read(self, worker: _Worker, *, once: bool) -> None:
+        try:
+            while worker.conn.poll():
+                self._post(self._on_message, worker, worker.conn.recv())
+                if once:
+                    return
+        except (EOFError, OSError):
+            return  # closed: the sentinel reports the death
+
+
+class LocalBackend:
+    """A :class:`~service.jobs.backend.ComputeBackend` of local worker processes.
+
+    ``warmup`` makes each new worker compile/load the engine's kernels before its first task.
+    """
+
+    name = "local"
+
+    def __init__(self, workers: int = 1, *, cancel_grace: float = 10.0, warmup: bool = True):
+        if workers < 1:
+            raise ValueError("workers must be at least 1")
+        self.workers = workers
+        self.cancel_grace = cancel_grace
+        self.warmup = warmup
+        self._ctx = _context()
+        self._pool: list[_Worker] = []
+        self._queue: deque[Task] = deque()
+        self._tokens = itertools.count(1)
+        self._events: Events | None = None
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._watcher: _Watcher | None = None
+        self._closing = False
+        self._spawning = 0
+        self._spawns: set[asyncio.Task[None]] = set()
+
+    # -- lifecycle -----------------------------------------------------------------------------
+    async def start(self, events: Events) -> None:
+        self._events = events
+        self._loop = asyncio.get_running_loop()
+        self._closing = False
+        self._watcher = _Watcher(self._loop, self._handle, self._died)
+        await asyncio.gather(*(self._spawn() for _ in range(self.workers)))
+
+    async def _spawn(self) -> None:
+        self._spawning += 1
+        try:
+            parent, child = self._ctx.Pipe()
+            stop = self._ctx.RawValue("q", 0)
+            process = self._ctx.Process(
+                target=_worker_main, args=(child, stop, self.warmup), daemon=True
+            )
+            # Starting can wait on the forkserver (seconds the first time): not on the loop.
+            await asyncio.to_thread(process.start)
+            child.close()
+        finally:
+            self._spawning -= 1
+        worker = _Worker(process, parent, stop, sentinel=process.sentinel)
+        if self._closing or self._watcher is None:
+            with contextlib.suppress(OSError, ValueError):
+                process.kill()
+            await asyncio.to_thread(process.join, 5.0)
+            parent.close()
+            return
+        self._pool.append(worker)
+        self._watcher.add(worker)
+        log.info("worker started", extra={"pid": process.pid})
+        self._dispatch()
+
+    async def close(self) -> None:
+        if self._closing and self._watcher is None:
+            return
+        self._closing = True
+        await asyncio.gather(*self._spawns, return_exceptions=True)
+        pool, self._pool = self._pool, []
+        self._queue.clear()
+        for worker in pool:
+            if worker.timer is not None:
+                worker.timer.cancel()
+            with contextlib.suppress(OSError, ValueError):
+                if worker.task is None:
+                    worker.conn.send(None)  # idle: exit cleanly
+                else:
+                    worker.process.kill()
+        await asyncio.gather(*(asyncio.to_thread(w.process.join, 5.0) for w in pool))
+        for worker in pool:
+            if worker.process.is_alive():
+                worker.process.kill()
+                await asyncio.to_thread(worker.process.join, 5.0)
+        if self._watcher is not None:
+            await asyncio.to_thread(self._watcher.stop)
+            self._watcher = None
+        for worker in pool:
+            with contextlib.suppress(OSError):
+                worker.conn.close()
+            worker.process.close()
+
+    def _require_loop(self) -> asyncio.AbstractEventLoop:
+        if self._loop is None or self._events is None:
+            raise RuntimeError("the backend is not started")
+        return self._loop
+
+    # -- tasks ---------------------------------------------------------------------------------
+    def submit(self, task: Task) -> None:
+        self._require_loop()
+        if self._closing:
+            raise RuntimeError("the backend is closing")
+        self._queue.append(task)
+        self._dispatch()
+
+    def cancel(self, job_id: str) -> None:
+        loop = self._require_loop()
+        for task in self._queue:
+            if task.job_id == job_id:
+                self._queue.remove(task)
+                outcome = Outcome(OutcomeKind.cancelled, reason="dismissed before it started")
+                loop.call_soon(self._report, job_id, outcome)
+                return
+        for worker in self._pool:
+            if worker.task is not None and worker.task.job_id == job_id:
+                self._stop(worker, OutcomeKind.cancelled)
+                return
+
+    def alive(self) -> bool:
+        return (
+            self._loop is not None
+            and not self._closing
+            and (any(w.process.is_alive() for w in self._pool) or self._spawning > 0)
+        )
+
+    def stats(self) -> BackendStats:
+        return BackendStats(
+            workers=self.workers,
+            alive=sum(1 for w in self._pool if w.process.is_alive()),
+            busy=sum(1 for w in self._pool if w.task is not None),
+            queued=len(self._queue),
+        )
+
+    def worker_pids(self) -> list[int]:
+        """Process ids of the workers (for operators and fault tests)."""
+        return [w.process.pid for w in self._pool if w.process.pid is not None]
+
+    def _report(self, job_id: str, outcome: Outcome) -> None:
+        if self._events is not None:
+            self._events.finished(job_id, outcome)
+
+    def _dispatch(self) -> None:
+        if self._closing:
+            return
+        for worker in self._pool:
+            if not self._queue:
+                return
+            if worker.task is not None or worker.gone:
+                continue
+            task = self._queue.popleft()
+            worker.task, worker.token = task, next(self._tokens)
+            worker.started, worker.stopping = time.perf_counter(), None
+            try:
+                worker.conn.send((worker.token, task.runner, task.payload))
+            except (BrokenPipeError, OSError):
+                # The worker is dying; its sentinel fires next and reports the task as crashed.
+                continue
+            loop = self._require_loop()
+            worker.timer = loop.call_later(task.timeout, self._stop, worker, OutcomeKind.timeout)
+            assert self._events is not None
+            self._events.started(task.job_id)
+
+    def _stop(self, worker: _Worker, why: OutcomeKind) -> None:
+        """Ask the worker's task to stop; kill the worker if it has not after the grace period."""
+        if worker.task is None or worker.stopping is not None:
+            return
+        worker.stopping = why
+        worker.stop.value = worker.token
+        if worker.timer is not None:
+            worker.timer.cancel()
+        token = worker.token
+        worker.timer = self._require_loop().call_later(
+            self.cancel_grace, self._kill_if_stuck, worker, token
+        )
+
+    def _kill_if_stuck(self, worker: _Worker, token: int) -> None:
+        if worker.task is not None and worker.token == token and not worker.gone:
+            log.warning("killing a worker that did not stop", extra={"pid": worker.process.pid})
+            with contextlib.suppress(OSError, ValueError):
+                worker.process.kill()
+
+    def _finish(self, worker: _Worker, outcome: Outcome) -> None:
+        task = worker.task
+        if task is None:
+            return
+        if worker.timer is not None:
+            worker.timer.cancel()
+            worker.timer = None
+        worker.task = None
+        if worker.stopping is not None and outcome.kind is not OutcomeKind.crashed:
+            outcome = Outcome(worker.stopping, reason=self._why(worker.stopping, task))
+        self._report(task.job_id, outcome)
+        self._dispatch()  # the worker is free
+
+    @staticmethod
+    def _why(kind: OutcomeKind, task: Task) -> str:
+        if kind is OutcomeKind.timeout:
+            return f"stopped after exceeding the time limit of {task.timeout:g} s"
+        return "stopped on request"
+
+    def _handle(self, worker: _Worker, msg: tuple[Any, ...]) -> None:
+        kind, token = msg[0], msg[1]
+        if token != worker.token or worker.task is None or self._closing:
+            return  # a late message of a task already reported
+        if kind == "progress":
+            assert self._events is not None
+            if worker.stopping is None:
+                self._events.progress(worker.task.job_id, msg[2], msg[3])
+        elif kind == "done":
+            self._finish(worker, Outcome(OutcomeKind.succeeded, msg[2], msg[3], seconds=msg[4]))
+        elif kind == "cancelled":
+            self._finish(worker, Outcome(OutcomeKind.cancelled, reason=msg[2], seconds=msg[3]))
+        else:
+            self._finish(worker, Outcome(OutcomeKind.error, reason=msg[2], seconds=msg[3]))
+
+    def _died(self, worker: _Worker) -> None:
+        if worker.gone or self._closing:
+            return
+        worker.gone = True
+        worker.process.join(0)  # the sentinel fired: the exit status is there
+        code = worker.process.exitcode
+        if worker in self._pool:
+            self._pool.remove(worker)
+        if worker.task is not None:
+            if worker.stopping is not None:
+                outcome = Outcome(worker.stopping, reason=self._why(worker.stopping, worker.task))
+            else:
+                elapsed = time.perf_counter() - worker.started
+                outcome = Outcome(OutcomeKind.crashed, reason=_death(code), seconds=elapsed)
+            self._finish(worker, outcome)
+        log.warning("worker exited", extra={"pid": worker.process.pid, "exitcode": code})
+        with contextlib.suppress(ValueError):
+            worker.process.close()
+        spawn = self._require_loop().create_task(self._spawn())
+        self._spawns.add(spawn)  # a reference, or the task may be collected mid-flight
+        spawn.add_done_callback(self._spawns.discard)
+        self._dispatch()
+
+
+def _death(code: int | None) -> str:
+    if code is not None and code < 0:
+        try:
+            name = signal.Signals(-code).name
+        except ValueError:
+            name = f"signal {-code}"
+        return f"the worker process was killed by {name}"
+    return f"the worker process exited unexpectedly (exit code {code})"

@@ -1,0 +1,234 @@
+"""The job manager: between the HTTP routers, the store and the compute backend.
+
+It writes every change to the store first (the source of truth), hands tasks to the backend,
+turns backend events into status changes, retries runs whose worker crashed (up to
+``max_attempts``), re-queues what a stopped service left unfinished, and purges old jobs.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import hashlib
+import json
+import logging
+import time
+import uuid
+from collections.abc import Sequence
+from typing import Any
+
+from ..metrics import Metrics
+from ..processes import PROCESSES, Prepared, Process
+from ..settings import Settings
+from .backend import ComputeBackend, Outcome, OutcomeKind, Task
+from .store import BatchRecord, JobRecord, JobStore, NewJob
+
+__all__ = ["JobManager", "request_digest"]
+
+log = logging.getLogger("evomesh.jobs")
+
+#: Results up to this size are stored from the event loop (a thread hop costs more).
+INLINE_RESULT_BYTES = 256 * 1024
+
+
+def request_digest(process: str, body: Any) -> str:
+    """A digest of a request, for idempotency keys: same JSON value, same digest.
+
+    >>> request_digest("mesh", {"a": 1, "b": 2}) == request_digest("mesh", {"b": 2, "a": 1})
+    True
+    """
+    text = json.dumps([process, body], sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+class JobManager:
+    """Runs jobs: store first, then backend; backend events back into the store."""
+
+    def __init__(
+        self,
+        store: JobStore,
+        backend: ComputeBackend,
+        settings: Settings,
+        metrics: Metrics,
+        processes: dict[str, Process] | None = None,
+    ) -> None:
+        self.store = store
+        self.backend = backend
+        self.settings = settings
+        self.metrics = metrics
+        self.processes = processes if processes is not None else PROCESSES
+        self._inflight: dict[str, int] = {}  #: job id -> attempt, handed to the backend
+        self._background: set[asyncio.Task[Any]] = set()
+        self._purger: asyncio.Task[None] | None = None
+        self._closing = False
+
+    # -- lifecycle -----------------------------------------------------------------------------
+    async def start(self) -> None:
+        await self.backend.start(self)
+        self.recover()
+        self._purger = asyncio.create_task(self._purge_loop())
+
+    async def close(self) -> None:
+        self._closing = True
+        if self._purger is not None:
+            self._purger.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await self._purger
+        await self.backend.close()
+        await asyncio.gather(*self._background, return_exceptions=True)
+        for job_id in list(self._inflight):
+            # Interrupted by us, not by the job: the next start runs it again, uncounted.
+            self.store.requeue(job_id, "queued again after a service stop", keep_attempt=False)
+        self._inflight.clear()
+
+    def recover(self) -> int:
+        """Queue again the jobs a stopped service left accepted or running."""
+        count = 0
+        for record in self.store.unfinished():
+            if record.id in self._inflight:
+                continue
+            if record.attempts >= self.settings.max_attempts:
+                self.store.fail(
+                    record.id,
+                    f"interrupted on attempt {record.attempts} of {self.settings.max_attempts}",
+                )
+                continue
+            self.store.requeue(record.id, "queued again after a restart")
+            self._dispatch(record.id, record.process, record.attempts + 1)
+            count += 1
+        if count:
+            log.info("re-queued unfinished jobs", extra={"jobs": count})
+        return count
+
+    # -- requests ------------------------------------------------------------------------------
+    def submit(
+        self,
+        process: Process,
+        prepared: Prepared,
+        *,
+        idempotency_key: str | None = None,
+        request_hash: str | None = None,
+    ) -> tuple[JobRecord, bool]:
+        """Create a job (written before anyone hears of it) and queue it."""
+        job = NewJob(
+            id=str(uuid.uuid4()),
+            process=process.id,
+            inputs=prepared.inputs,
+            seed=prepared.seed,
+            idempotency_key=idempotency_key,
+            request_hash=request_hash,
+        )
+        record, created = self.store.create(job)
+        if created:
+            self.metrics.submitted.labels(process.id).inc()
+            log.info("job accepted", extra={"job_id": record.id, "processID": process.id})
+            self._dispatch(record.id, process.id, 1, prepared.inputs)
+        return record, created
+
+    def submit_batch(self, process: Process, items: Sequence[Prepared]) -> BatchRecord:
+        """Create the jobs of a batch in one transaction, then queue them."""
+        batch_id = str(uuid.uuid4())
+        jobs = [
+            NewJob(str(uuid.uuid4()), process.id, p.inputs, p.seed, batch_id=batch_id)
+            for p in items
+        ]
+        batch = self.store.create_batch(batch_id, process.id, jobs)
+        self.metrics.submitted.labels(process.id).inc(len(jobs))
+        log.info("batch accepted", extra={"batch_id": batch_id, "jobs": len(jobs)})
+        for job in jobs:
+            self._dispatch(job.id, process.id, 1, job.inputs)
+        return batch
+
+    def dismiss(self, job_id: str) -> JobRecord | None:
+        """Dismiss a job: a queued one never runs, a running one is stopped."""
+        record = self.store.dismiss(job_id)
+        if record is not None and job_id in self._inflight:
+            self.backend.cancel(job_id)
+        if record is not None:
+            log.info("job dismissed", extra={"job_id": job_id})
+        return record
+
+    def _dispatch(
+        self, job_id: str, process_id: str, attempt: int, inputs: dict[str, Any] | None = None
+    ) -> None:
+        process = self.processes.get(process_id)
+        payload = inputs if inputs is not None else self.store.inputs(job_id)
+        if process is None or payload is None:
+            self.store.fail(job_id, f"process {process_id!r} is not available")
+            return
+        self._inflight[job_id] = attempt
+        self.backend.submit(
+            Task(job_id, process.runner, payload, attempt, self.settings.job_timeout)
+        )
+
+    # -- backend events (on the event loop) ----------------------------------------------------
+    def started(self, job_id: str) -> None:
+        attempt = self._inflight.get(job_id, 1)
+        if not self.store.mark_running(job_id, attempt):
+            self.backend.cancel(job_id)  # dismissed meanwhile
+            return
+        if attempt > 1:
+            self.metrics.retries.inc()
+        log.info("job started", extra={"job_id": job_id, "attempt": attempt})
+
+    def progress(self, job_id: str, percent: int, message: str) -> None:
+        self.store.set_progress(job_id, percent, message)
+
+    def finished(self, job_id: str, outcome: Outcome) -> None:
+        attempt = self._inflight.pop(job_id, None)
+        if attempt is None:
+            return
+        record = self.store.get(job_id)
+        process = record.process if record else "?"
+        self.metrics.outcomes.labels(process, outcome.kind.value).inc()
+        extra = {"job_id": job_id, "attempt": attempt, "outcome": outcome.kind.value}
+        if outcome.kind is OutcomeKind.succeeded:
+            self._spawn(self._succeeded(job_id, process, outcome))
+        elif outcome.kind is OutcomeKind.crashed:
+            if attempt < self.settings.max_attempts and not self._closing:
+                log.warning("job retried: %s", outcome.reason, extra=extra)
+                if self.store.requeue(job_id, f"retrying after: {outcome.reason}"):
+                    self._dispatch(job_id, process, attempt + 1)
+            else:
+                reason = f"{outcome.reason} (attempt {attempt} of {self.settings.max_attempts})"
+                log.error("job failed: %s", reason, extra=extra)
+                self.store.fail(job_id, reason)
+        elif outcome.kind is OutcomeKind.cancelled:
+            log.info("job stopped", extra=extra)
+        else:
+            log.warning("job failed: %s", outcome.reason, extra=extra)
+            self.store.fail(job_id, outcome.reason)
+
+    async def _succeeded(self, job_id: str, process: str, outcome: Outcome) -> None:
+        data = outcome.data or b""
+        if len(data) <= INLINE_RESULT_BYTES:
+            done = self.store.finish(job_id, data, outcome.meta)
+        else:  # a large result takes a while to write: not on the event loop
+            done = await asyncio.to_thread(self.store.finish, job_id, data, outcome.meta)
+        if done:
+            self.metrics.duration.labels(process).observe(outcome.seconds)
+            self.metrics.triangles.inc(int(outcome.meta.get("triangles", 0)))
+            log.info(
+                "job successful",
+                extra={
+                    "job_id": job_id,
+                    "seconds": round(outcome.seconds, 4),
+                    "figures": outcome.meta,
+                },
+            )
+
+    def _spawn(self, coro: Any) -> None:
+        task = asyncio.get_running_loop().create_task(coro)
+        self._background.add(task)
+        task.add_done_callback(self._background.discard)
+
+    async def _purge_loop(self) -> None:
+        while True:
+            cutoff = time.time() - self.settings.result_retention
+            try:
+                n = await asyncio.to_thread(self.store.purge, cutoff)
+                if n:
+                    log.info("purged old jobs", extra={"jobs": n})
+            except Exception:  # a failed purge must not stop the service; it tries again
+                log.exception("purge failed")
+            await asyncio.sleep(self.settings.purge_interval)

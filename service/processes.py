@@ -1,0 +1,317 @@
+"""The processes the service offers (``mesh``, ``smooth``, ``quality``) as a registry.
+
+A :class:`Process` couples the inputs model (whose JSON schema becomes the OGC process
+description), a ``prepare`` step run at submission (parse and validate the region, check the
+limits, choose the seed) and the runner that computes it in a worker. Errors found here are
+reported before any job exists, as 422 problems pointing at the offending input.
+"""
+
+from __future__ import annotations
+
+import math
+import secrets
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from pydantic import BaseModel
+
+import engine
+
+from .document import mesh_from_document
+from .geojson import BoundaryInputError, parse_region
+from .inputs import (
+    ExecuteRequest,
+    MeshDocumentInput,
+    MeshExecute,
+    MeshInputs,
+    QualityExecute,
+    QualityInputs,
+    SmoothExecute,
+    SmoothingInput,
+    SmoothInputs,
+)
+from .problems import Problem
+from .settings import Settings
+
+__all__ = [
+    "PROCESSES",
+    "Prepared",
+    "Process",
+    "Where",
+    "count_rings",
+    "estimate_triangles",
+    "inputs_at",
+]
+
+#: ``where(input_name) -> JSON pointer`` of an input in the request (for error reports).
+Where = Callable[[str], str]
+
+
+def inputs_at(base: str) -> Where:
+    """Inputs found under ``base`` (``/inputs`` in an execute request).
+
+    >>> inputs_at("/inputs")("size")
+    '/inputs/size'
+    """
+    return lambda name: f"{base}/{name}"
+
+
+#: Area of an equilateral triangle of unit side: a region of area A meshed at size h holds about
+#: A / (EQUILATERAL * h^2) triangles.
+EQUILATERAL = math.sqrt(3.0) / 4.0
+
+
+@dataclass(frozen=True)
+class Prepared:
+    """A validated request, ready to store and run."""
+
+    inputs: dict[str, Any]  #: resolved inputs (defaults and seed filled in), as JSON
+    seed: int | None
+    triangles: int  #: estimated size of the result
+
+
+@dataclass(frozen=True)
+class Process:
+    """One process of the OGC API."""
+
+    id: str
+    title: str
+    description: str
+    inputs_model: type[BaseModel]
+    execute_model: type[ExecuteRequest]
+    runner: str  #: ``module:function`` run by a worker
+    prepare: Callable[[Any, Settings, Where], Prepared]  #: validate, check limits, fill seed
+    version: str = "1.0.0"
+    keywords: tuple[str, ...] = ()
+    outputs: dict[str, Any] = field(default_factory=dict)
+
+    def summary(self) -> dict[str, Any]:
+        return {
+            "id": self.id,
+            "title": self.title,
+            "description": self.description,
+            "version": self.version,
+            "keywords": list(self.keywords),
+            "jobControlOptions": ["async-execute", "dismiss"],
+            "outputTransmission": ["value"],
+        }
+
+
+def count_rings(obj: Any, limit: int = 10**9) -> tuple[int, int]:
+    """(rings, positions) in a boundary input, counted without parsing it.
+
+    A ring is a list whose items are lists of numbers; the walk stops early past ``limit``.
+
+    >>> count_rings({"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [0, 1]]]})
+    (1, 3)
+    """
+    rings = positions = 0
+    stack = [obj]
+    while stack and positions <= limit:
+        item = stack.pop()
+        if isinstance(item, dict):
+            stack.extend(item.values())
+        elif isinstance(item, list) and item:
+            first = item[0]
+            if (
+                isinstance(first, list)
+                and first
+                and all(isinstance(c, int | float) and not isinstance(c, bool) for c in first)
+            ):
+                rings += 1
+                positions += len(item)
+            else:
+                stack.extend(item)
+    return rings, positions
+
+
+def estimate_triangles(area: float, size: float) -> int:
+    """Triangles of a region of ``area`` meshed at edge length ``size``.
+
+    >>> estimate_triangles(1.0, 0.1)
+    231
+    """
+    return math.ceil(area / (EQUILATERAL * size * size))
+
+
+def _smoothing(smoothing: SmoothingInput, where: Where) -> dict[str, Any]:
+    if smoothing.method not in engine.SMOOTHERS:  # the default may not be installed
+        raise Problem(
+            422,
+            f"unknown smoothing method {smoothing.method!r}; "
+            f"choose one of {sorted(engine.SMOOTHERS)}",
+            kind="invalid-input",
+            pointer=f"{where('smoothing')}/method",
+        )
+    values = smoothing.model_dump()
+    if values["seed"] is None:
+        values["seed"] = secrets.randbits(63)  # stored with the job: reruns are identical
+    return values
+
+
+def _limit(value: float, limit: float, what: str, pointer: str) -> None:
+    if value > limit:
+        raise Problem(
+            422,
+            f"{what} is {value:.4g}, over the limit of {limit:.4g}",
+            kind="limit-exceeded",
+            title="Input over a limit",
+            pointer=pointer,
+        )
+
+
+def _ga_work(smoothing: dict[str, Any], triangles: int, settings: Settings, where: Where) -> None:
+    if smoothing["method"] != "ga":
+        return
+    nodes = max(1, triangles // 2)
+    work = nodes * smoothing["population"] * smoothing["generations"] * smoothing["max_sweeps"]
+    _limit(
+        float(work),
+        settings.max_ga_work,
+        "the GA work (nodes x population x generations x sweeps)",
+        where("smoothing"),
+    )
+
+
+def _prepare_mesh(inputs: MeshInputs, settings: Settings, where: Where) -> Prepared:
+    rings, vertices = count_rings(inputs.boundary, settings.max_vertices)
+    at = where("boundary")
+    _limit(rings, settings.max_rings, "the number of rings", at)
+    _limit(vertices, settings.max_vertices, "the number of boundary vertices", at)
+    try:
+        parsed = parse_region(inputs.boundary, pointer=at, wgs84=inputs.coordinates == "wgs84")
+    except (BoundaryInputError, engine.InvalidBoundary):
+        raise
+    except (TypeError, ValueError, ArithmeticError) as exc:
+        # Input the parser did not foresee: still the input's fault, never a server error.
+        raise Problem(
+            422, f"the boundary could not be read: {exc}", kind="invalid-boundary", pointer=at
+        ) from exc
+    size = inputs.size
+    if size is None:
+        h = parsed.properties.get("h")
+        if not isinstance(h, int | float) or isinstance(h, bool) or not (0 < h < math.inf):
+            raise Problem(
+                422,
+                "size is required (or a positive 'h' property on the Feature)",
+                kind="invalid-input",
+                pointer=where("size"),
+            )
+        size = float(h)
+    try:
+        engine.SizingParams(size, inputs.growth, inputs.size_min, inputs.size_max)
+    except ValueError as exc:
+        raise Problem(422, str(exc), kind="invalid-input", pointer=where("size")) from None
+    triangles = estimate_triangles(parsed.region.area, size)
+    _limit(triangles, settings.max_triangles, "the estimated number of triangles", where("size"))
+    smoothing = _smoothing(inputs.smoothing, where)
+    _ga_work(smoothing, triangles, settings, where)
+    resolved = inputs.model_dump()
+    resolved["size"] = size
+    resolved["smoothing"] = smoothing
+    return Prepared(resolved, smoothing["seed"], triangles)
+
+
+def _mesh_size(mesh: MeshDocumentInput, settings: Settings, where: Where) -> int:
+    """Check a mesh input's size, then the mesh itself (so a bad mesh is refused up front)."""
+    at = where("mesh")
+    limit = settings.max_triangles
+    _limit(len(mesh.triangles), limit, "the number of triangles", f"{at}/triangles")
+    _limit(len(mesh.points), limit, "the number of points", f"{at}/points")
+    try:
+        mesh_from_document(mesh.model_dump(exclude_none=True))
+    except engine.InvalidMesh as exc:
+        pointer = at
+        if exc.triangle is not None:
+            pointer += f"/triangles/{exc.triangle}"
+        elif exc.point is not None:
+            pointer += f"/{'points_local' if mesh.points_local else 'points'}/{exc.point}"
+        raise Problem(422, exc.message, kind="invalid-mesh", pointer=pointer) from None
+    except (TypeError, ValueError, ArithmeticError) as exc:
+        raise Problem(
+            422, f"the mesh could not be read: {exc}", kind="invalid-mesh", pointer=at
+        ) from exc
+    return len(mesh.triangles)
+
+
+def _mesh_only(mesh: MeshDocumentInput) -> dict[str, Any]:
+    """The parts of a mesh document a job uses (a whole result document may be given)."""
+    return mesh.model_dump(include={"points", "triangles", "points_local"}, exclude_none=True)
+
+
+def _prepare_smooth(inputs: SmoothInputs, settings: Settings, where: Where) -> Prepared:
+    triangles = _mesh_size(inputs.mesh, settings, where)
+    smoothing = _smoothing(inputs.smoothing, where)
+    _ga_work(smoothing, triangles, settings, where)
+    resolved = inputs.model_dump(exclude_none=True)
+    resolved["mesh"] = _mesh_only(inputs.mesh)
+    resolved["smoothing"] = smoothing
+    return Prepared(resolved, smoothing["seed"], triangles)
+
+
+def _prepare_quality(inputs: QualityInputs, settings: Settings, where: Where) -> Prepared:
+    triangles = _mesh_size(inputs.mesh, settings, where)
+    resolved = inputs.model_dump(exclude_none=True)
+    resolved["mesh"] = _mesh_only(inputs.mesh)
+    return Prepared(resolved, None, triangles)
+
+
+_MESH_OUTPUT = {
+    "mesh": {
+        "title": "mesh document",
+        "description": (
+            "points, counter-clockwise 0-based triangles, per-node fitness, per-triangle "
+            "quality figures and the summary of every stage; GET /jobs/{jobID}/results?f= "
+            "json | geojson | vtu | msh"
+        ),
+        "schema": {
+            "type": "object",
+            "contentMediaType": "application/json",
+            "required": ["points", "triangles", "point_data", "cell_data", "summary"],
+        },
+    }
+}
+
+#: The processes by id.
+PROCESSES: dict[str, Process] = {
+    p.id: p
+    for p in (
+        Process(
+            id="mesh",
+            title="Mesh a region",
+            description=(
+                "Mesh a planar region with holes by advancing front, swap diagonals, then smooth "
+                "interior nodes (genetic algorithm by default)."
+            ),
+            inputs_model=MeshInputs,
+            execute_model=MeshExecute,
+            runner="service.jobs.runners:mesh",
+            prepare=_prepare_mesh,
+            keywords=("mesh", "triangulation", "advancing front", "genetic algorithm"),
+            outputs=_MESH_OUTPUT,
+        ),
+        Process(
+            id="smooth",
+            title="Smooth a mesh",
+            description="Swap diagonals and move the interior nodes of an existing mesh.",
+            inputs_model=SmoothInputs,
+            execute_model=SmoothExecute,
+            runner="service.jobs.runners:smooth",
+            prepare=_prepare_smooth,
+            keywords=("mesh", "smoothing", "genetic algorithm"),
+            outputs=_MESH_OUTPUT,
+        ),
+        Process(
+            id="quality",
+            title="Assess a mesh",
+            description="Per-triangle quality, per-node fitness and summary figures of a mesh.",
+            inputs_model=QualityInputs,
+            execute_model=QualityExecute,
+            runner="service.jobs.runners:quality",
+            prepare=_prepare_quality,
+            keywords=("mesh", "quality"),
+            outputs=_MESH_OUTPUT,
+        ),
+    )
+}

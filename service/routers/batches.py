@@ -1,0 +1,165 @@
+"""``/batches``: many jobs in one request (a FeatureCollection, or execute requests sharing
+defaults), created together and followed together."""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from fastapi import APIRouter, Depends, Request
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import JSONResponse
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from ..deps import ManagerDep, SettingsDep, require_api_key
+from ..jobs.manager import JobManager
+from ..problems import Problem
+from ..processes import Prepared, Process, Where, inputs_at
+from ..schemas import BatchInfo
+from ..settings import Settings
+from ..views import base_url, batch_info
+from .processes import off_loop_if_large
+
+router = APIRouter(prefix="/batches", tags=["Batches"], dependencies=[Depends(require_api_key)])
+
+
+class BatchRequest(BaseModel):
+    """Either a GeoJSON FeatureCollection (one ``mesh`` job per feature; ``inputs`` holds the
+    shared parameters, a feature's ``h`` property its size) or ``requests``: execute requests
+    whose ``inputs`` are laid over the shared ``inputs``."""
+
+    model_config = ConfigDict(extra="allow")  # GeoJSON foreign members (bbox, name...)
+
+    type: Literal["FeatureCollection"] | None = None
+    features: list[dict[str, Any]] | None = Field(None, min_length=1)
+    process: str = Field("mesh", description="the process every job runs")
+    inputs: dict[str, Any] = Field(default_factory=dict, description="shared inputs")
+    requests: list[dict[str, Any]] | None = Field(None, min_length=1)
+
+    @model_validator(mode="after")
+    def _one_form(self) -> BatchRequest:
+        if (self.features is None) == (self.requests is None):
+            raise ValueError("give either a FeatureCollection's features or requests, not both")
+        return self
+
+
+def merge(defaults: dict[str, Any], given: dict[str, Any]) -> dict[str, Any]:
+    """``given`` laid over ``defaults``, objects merged key by key.
+
+    >>> merge({"size": 1, "smoothing": {"method": "none", "seed": 1}}, {"smoothing": {"seed": 2}})
+    {'size': 1, 'smoothing': {'method': 'none', 'seed': 2}}
+    """
+    out = dict(defaults)
+    for key, value in given.items():
+        if isinstance(value, dict) and isinstance(out.get(key), dict):
+            out[key] = merge(out[key], value)
+        else:
+            out[key] = value
+    return out
+
+
+def _items(body: BatchRequest) -> list[tuple[dict[str, Any], tuple[Any, ...], Where]]:
+    """Each job's inputs, where validation errors point, and where its inputs are."""
+    out: list[tuple[dict[str, Any], tuple[Any, ...], Where]] = []
+    if body.features is not None:
+        for i, feature in enumerate(body.features):
+
+            def where(name: str, i: int = i) -> str:
+                return f"/features/{i}" if name == "boundary" else f"/inputs/{name}"
+
+            out.append((merge(body.inputs, {"boundary": feature}), ("features", i), where))
+    else:
+        assert body.requests is not None
+        for i, request in enumerate(body.requests):
+            given = request.get("inputs", {})
+            if not isinstance(given, dict):
+                raise RequestValidationError(
+                    [{"loc": ("body", "requests", i, "inputs"), "msg": "inputs must be an object"}]
+                )
+            out.append(
+                (
+                    merge(body.inputs, given),
+                    ("requests", i, "inputs"),
+                    inputs_at(f"/requests/{i}/inputs"),
+                )
+            )
+    return out
+
+
+def _prepare_all(body: BatchRequest, process: Process, settings: Settings) -> list[Prepared]:
+    prepared = []
+    for inputs, loc, where in _items(body):
+        try:
+            model = process.inputs_model.model_validate(inputs)
+        except ValidationError as exc:
+            errors = []
+            for err in exc.errors():
+                path = list(err["loc"])
+                if loc[0] == "features" and path[:1] == ["boundary"]:
+                    path = path[1:]  # the feature is the boundary
+                errors.append({"loc": ("body", *loc, *path), "msg": err["msg"]})
+            raise RequestValidationError(errors) from None
+        prepared.append(process.prepare(model, settings, where))
+    return prepared
+
+
+@router.post(
+    "",
+    status_code=201,
+    summary="Create a batch of jobs (all or none)",
+    response_model=None,
+    responses={201: {"model": BatchInfo, "headers": {"Location": {"schema": {"type": "string"}}}}},
+)
+async def create_batch(
+    body: BatchRequest, request: Request, manager: ManagerDep, settings: SettingsDep
+) -> JSONResponse:
+    process = manager.processes.get(body.process)
+    if process is None:
+        raise Problem(
+            404, f"there is no process {body.process!r}", kind="no-such-process", pointer="/process"
+        )
+    if body.features is not None and process.id != "mesh":
+        raise Problem(
+            422,
+            "a FeatureCollection batch runs the mesh process",
+            kind="invalid-input",
+            pointer="/process",
+        )
+    count = len(body.features or body.requests or [])
+    if count > settings.max_batch_items:
+        raise Problem(
+            422,
+            f"the batch has {count} items, over the limit of {settings.max_batch_items}",
+            kind="limit-exceeded",
+            pointer="/features" if body.features is not None else "/requests",
+        )
+    prepared = await off_loop_if_large(request, _prepare_all, body, process, settings)
+    batch = manager.submit_batch(process, prepared)
+    base = base_url(request)
+    doc = batch_info(base, batch, manager.store.records(batch.job_ids))
+    return JSONResponse(doc, status_code=201, headers={"Location": f"{base}/batches/{batch.id}"})
+
+
+def _batch_doc(request: Request, manager: JobManager, batch_id: str) -> dict[str, Any]:
+    batch = manager.store.batch(batch_id)
+    if batch is None:
+        raise Problem(404, f"there is no batch {batch_id!r}", kind="no-such-batch")
+    return batch_info(base_url(request), batch, manager.store.records(batch.job_ids))
+
+
+@router.get(
+    "/{batchId}", summary="A batch's aggregated status", responses={200: {"model": BatchInfo}}
+)
+async def get_batch(batchId: str, request: Request, manager: ManagerDep) -> JSONResponse:
+    return JSONResponse(_batch_doc(request, manager, batchId))
+
+
+@router.delete(
+    "/{batchId}", summary="Dismiss every job of a batch", responses={200: {"model": BatchInfo}}
+)
+async def dismiss_batch(batchId: str, request: Request, manager: ManagerDep) -> JSONResponse:
+    batch = manager.store.batch(batchId)
+    if batch is None:
+        raise Problem(404, f"there is no batch {batchId!r}", kind="no-such-batch")
+    for job_id in batch.job_ids:
+        manager.dismiss(job_id)
+    return JSONResponse(_batch_doc(request, manager, batchId))

@@ -1,0 +1,97 @@
+"""The landing page, conformance, and the operational probes (health, readiness, metrics)."""
+
+from __future__ import annotations
+
+import asyncio
+from typing import Any
+
+from fastapi import APIRouter, Request, Response
+from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
+
+from ..deps import MetricsDep
+from ..problems import Problem
+from ..schemas import Conformance, LandingPage
+from ..views import REL_PROCESS, base_url, link
+
+router = APIRouter(tags=["Capabilities"])
+
+_CONF = "http://www.opengis.net/spec/ogcapi-processes-1/1.0/conf/"
+#: OGC API - Processes, Part 1 conformance classes this service implements.
+CONFORMANCE = [
+    _CONF + "core",
+    _CONF + "ogc-process-description",
+    _CONF + "json",
+    _CONF + "oas30",
+    _CONF + "job-list",
+    _CONF + "dismiss",
+]
+
+
+@router.get("/", response_model=LandingPage, summary="Landing page")
+def landing(request: Request) -> dict[str, Any]:
+    base = base_url(request)
+    return {
+        "title": "evomesh",
+        "description": (
+            "Unstructured triangular meshing of planar regions with genetic-algorithm smoothing "
+            "(OGC API - Processes)."
+        ),
+        "links": [
+            link(f"{base}/", "self", title="this document"),
+            link(
+                f"{base}/openapi.json",
+                "service-desc",
+                "application/vnd.oai.openapi+json;version=3.1",
+                "the API definition",
+            ),
+            link(f"{base}/docs", "service-doc", "text/html", "the API documentation"),
+            link(
+                f"{base}/conformance",
+                "http://www.opengis.net/def/rel/ogc/1.0/conformance",
+                title="conformance classes",
+            ),
+            link(f"{base}/processes", REL_PROCESS, title="processes"),
+            link(f"{base}/jobs", "http://www.opengis.net/def/rel/ogc/1.0/job-list", title="jobs"),
+        ],
+    }
+
+
+@router.get("/conformance", response_model=Conformance, summary="Conformance classes")
+def conformance() -> dict[str, Any]:
+    return {"conformsTo": CONFORMANCE}
+
+
+@router.get("/health", tags=["Operations"], summary="Liveness")
+def health() -> dict[str, str]:
+    return {"status": "ok"}
+
+
+@router.get("/ready", tags=["Operations"], summary="Readiness: store writable, workers alive")
+async def ready(request: Request) -> dict[str, Any]:
+    manager = getattr(request.app.state, "manager", None)
+    if manager is None:
+        raise Problem(503, "the service is not running", headers={"Retry-After": "5"})
+    try:
+        await asyncio.to_thread(manager.store.ping)
+    except Exception as exc:
+        raise Problem(503, f"the job store cannot be written: {exc}") from exc
+    if not manager.backend.alive():
+        raise Problem(503, "no worker is alive", headers={"Retry-After": "5"})
+    stats = manager.backend.stats()
+    return {
+        "status": "ready",
+        "backend": manager.backend.name,
+        "workers": {"configured": stats.workers, "alive": stats.alive, "busy": stats.busy},
+        "queued": stats.queued,
+    }
+
+
+@router.get(
+    "/metrics",
+    tags=["Operations"],
+    summary="Prometheus metrics",
+    response_class=Response,
+    responses={200: {"content": {"text/plain": {"schema": {"type": "string"}}}}},
+)
+def metrics(metrics: MetricsDep) -> Response:
+    return Response(generate_latest(metrics.registry), media_type=CONTENT_TYPE_LATEST)

@@ -1,0 +1,184 @@
+"""``/processes``: the process list, their OGC descriptions, and execution (always async)."""
+
+import asyncio
+from collections.abc import Callable
+from typing import Annotated, Any, TypeVar
+
+from fastapi import APIRouter, Depends, Header, Request
+from fastapi.responses import JSONResponse
+
+from ..deps import ManagerDep, SettingsDep, require_api_key
+from ..inputs import ExecuteRequest
+from ..jobs.manager import request_digest
+from ..jobs.store import IdempotencyConflict
+from ..problems import Problem
+from ..processes import PROCESSES, Process, inputs_at
+from ..schemas import ProcessDescription, ProcessList, StatusInfo
+from ..views import base_url, link, status_info
+
+_REL_EXECUTE = "http://www.opengis.net/def/rel/ogc/1.0/execute"
+
+
+def _inline(schema: dict[str, Any], defs: dict[str, Any]) -> Any:
+    """``schema`` with local ``$ref``s replaced by their definitions (OGC wants them inline)."""
+    if isinstance(schema, dict):
+        ref = schema.get("$ref")
+        if isinstance(ref, str) and ref.startswith("#/$defs/"):
+            return _inline(defs[ref.rsplit("/", 1)[1]], defs)
+        return {k: _inline(v, defs) for k, v in schema.items() if k != "$defs"}
+    if isinstance(schema, list):
+        return [_inline(v, defs) for v in schema]
+    return schema
+
+
+def describe(process: Process, base: str) -> dict[str, Any]:
+    """The OGC process description; input schemas come from the inputs model."""
+    full = process.inputs_model.model_json_schema()
+    defs = full.get("$defs", {})
+    required = set(full.get("required", []))
+    inputs = {}
+    for name, prop in full["properties"].items():
+        schema = _inline(prop, defs)
+        inputs[name] = {
+            "title": schema.pop("title", name),
+            "description": schema.get("description", ""),
+            "schema": schema,
+            "minOccurs": 1 if name in required else 0,
+            "maxOccurs": 1,
+        }
+    return {
+        **process.summary(),
+        "inputs": inputs,
+        "outputs": process.outputs,
+        "links": _process_links(process, base),
+    }
+
+
+def _process_links(process: Process, base: str) -> list[dict[str, Any]]:
+    return [
+        link(f"{base}/processes/{process.id}", "self", title="process description"),
+        link(f"{base}/processes/{process.id}/execution", _REL_EXECUTE, title="execute"),
+    ]
+
+
+#: Requests up to this size are validated on the event loop: a thread hop (and the GIL hand-over
+#: it causes) costs more than parsing a small region.
+INLINE_BYTES = 32 * 1024
+
+T = TypeVar("T")
+
+
+async def off_loop_if_large(request: Request, fn: Callable[..., T], *args: Any) -> T:
+    """``fn(*args)``, in a thread when the request body is large (parsing it takes a while)."""
+    size = int(request.headers.get("content-length") or INLINE_BYTES + 1)
+    if size <= INLINE_BYTES:
+        return fn(*args)
+    return await asyncio.to_thread(fn, *args)
+
+
+def _unknown(process_id: str, processes: dict[str, Process]) -> Problem:
+    return Problem(
+        404,
+        f"there is no process {process_id!r}; the processes are {sorted(processes)}",
+        kind="no-such-process",
+    )
+
+
+IdempotencyKey = Annotated[
+    str | None,
+    Header(
+        alias="Idempotency-Key",
+        max_length=255,
+        pattern=r"^[\x21-\x7e]+$",
+        description="the same key and body return the same job; a different body is a 422",
+    ),
+]
+
+_EXECUTE_RESPONSES: dict[int | str, dict[str, Any]] = {
+    201: {
+        "model": StatusInfo,
+        "description": "job created (or the job of a repeated Idempotency-Key)",
+        "headers": {"Location": {"schema": {"type": "string"}, "description": "the job"}},
+    }
+}
+
+
+def _execute_route(router: APIRouter, process: Process) -> None:
+    model = process.execute_model
+
+    async def execute(
+        body: model,  # type: ignore[valid-type]
+        request: Request,
+        manager: ManagerDep,
+        settings: SettingsDep,
+        idempotency_key: IdempotencyKey = None,
+    ) -> JSONResponse:
+        request_body: ExecuteRequest = body
+        prepared = await off_loop_if_large(
+            request, process.prepare, request_body.inputs, settings, inputs_at("/inputs")
+        )
+        digest = (
+            request_digest(process.id, request_body.model_dump(mode="json"))
+            if idempotency_key
+            else None
+        )
+        try:
+            record, created = manager.submit(
+                process, prepared, idempotency_key=idempotency_key, request_hash=digest
+            )
+        except IdempotencyConflict as exc:
+            raise Problem(
+                422,
+                f"the Idempotency-Key was used for a different request (job {exc.job_id})",
+                kind="idempotency-conflict",
+                title="Idempotency key reused",
+            ) from None
+        base = base_url(request)
+        headers = {"Location": f"{base}/jobs/{record.id}", "Preference-Applied": "respond-async"}
+        if not created:
+            headers["Idempotent-Replayed"] = "true"
+        return JSONResponse(status_info(base, record), status_code=201, headers=headers)
+
+    router.add_api_route(
+        f"/{process.id}/execution",
+        execute,
+        methods=["POST"],
+        status_code=201,
+        summary=f"Execute {process.id} (asynchronously)",
+        response_model=None,
+        responses=_EXECUTE_RESPONSES,
+        dependencies=[Depends(require_api_key)],
+        operation_id=f"execute_{process.id}",
+    )
+
+
+def build_router(processes: dict[str, Process] | None = None) -> APIRouter:
+    """The ``/processes`` router for a set of processes (by default :data:`PROCESSES`)."""
+    procs = PROCESSES if processes is None else processes
+    router = APIRouter(prefix="/processes", tags=["Processes"])
+
+    @router.get("", response_model=ProcessList, summary="The processes")
+    def list_processes(request: Request) -> dict[str, Any]:
+        base = base_url(request)
+        return {
+            "processes": [
+                {**p.summary(), "links": _process_links(p, base)} for p in procs.values()
+            ],
+            "links": [link(f"{base}/processes", "self", title="processes")],
+        }
+
+    @router.get("/{processId}", response_model=ProcessDescription, summary="A process description")
+    def get_process(processId: str, request: Request) -> dict[str, Any]:
+        process = procs.get(processId)
+        if process is None:
+            raise _unknown(processId, procs)
+        return describe(process, base_url(request))
+
+    for process in procs.values():
+        _execute_route(router, process)
+
+    @router.post("/{processId}/execution", include_in_schema=False)
+    def execute_unknown(processId: str) -> None:
+        raise _unknown(processId, procs)
+
+    return router

@@ -1,0 +1,75 @@
+"""The one settings class: every knob of the service, read from ``EVOMESH_*`` variables.
+
+Nothing reads the environment at import time; :func:`service.app.create_app` takes a
+:class:`Settings` instance, and ``Settings()`` reads the environment when it is constructed.
+
+>>> s = Settings(workers=2, api_keys="a, b", _env_file=None)
+>>> s.workers, s.api_keys
+(2, ['a', 'b'])
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Annotated, Literal
+
+from pydantic import Field, field_validator
+from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
+
+__all__ = ["Settings"]
+
+
+def _cpu_count() -> int:
+    return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1)
+
+
+class Settings(BaseSettings):
+    """Service configuration (environment variables ``EVOMESH_<NAME>``)."""
+
+    model_config = SettingsConfigDict(env_prefix="EVOMESH_", extra="ignore")
+
+    data_dir: Path = Field(Path("evomesh-data"), description="folder of the SQLite job store")
+    workers: int = Field(default_factory=_cpu_count, ge=1, le=256, description="worker processes")
+    backend: Literal["local", "dask"] = Field("local", description="compute backend")
+    scheduler: str | None = Field(None, description="Dask scheduler address (backend dask)")
+
+    max_body_bytes: int = Field(32 * 1024 * 1024, ge=1024, description="request body limit")
+    max_vertices: int = Field(100_000, ge=3, description="boundary vertices (or mesh points)")
+    max_rings: int = Field(1_000, ge=1, description="rings of a boundary, holes included")
+    max_triangles: int = Field(2_000_000, ge=1, description="estimated triangles of one job")
+    max_ga_work: float = Field(
+        2e10, gt=0, description="GA fitness evaluations: nodes x population x generations x sweeps"
+    )
+    max_batch_items: int = Field(10_000, ge=1, description="jobs of one batch")
+
+    job_timeout: float = Field(3600.0, gt=0, description="seconds one attempt of a job may run")
+    max_attempts: int = Field(3, ge=1, description="starts of a job before it fails for good")
+    cancel_grace: float = Field(
+        10.0, gt=0, description="seconds a stopping job gets before its worker is killed"
+    )
+    result_retention: float = Field(
+        7 * 24 * 3600.0, gt=0, description="seconds finished jobs and results are kept"
+    )
+    purge_interval: float = Field(600.0, gt=0, description="seconds between purges")
+
+    api_keys: Annotated[list[str], NoDecode] = Field(
+        default_factory=list, description="comma-separated keys; empty: no authentication"
+    )
+    cors_origins: Annotated[list[str], NoDecode] = Field(
+        default_factory=list, description="comma-separated origins allowed by CORS"
+    )
+    log_level: str = Field("info", description="logging level of the service")
+
+    @field_validator("api_keys", "cors_origins", mode="before")
+    @classmethod
+    def _split(cls, value: object) -> object:
+        # Environment values are comma-separated lists, not JSON.
+        if isinstance(value, str):
+            return [item.strip() for item in value.split(",") if item.strip()]
+        return value
+
+    @property
+    def database(self) -> Path:
+        """The SQLite file of the job store."""
+        return self.data_dir / "jobs.sqlite3"

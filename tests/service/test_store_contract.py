@@ -1,0 +1,248 @@
+"""The JobStore contract: every implementation passes these tests."""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import pytest
+
+from service.jobs.sqlite import SqliteJobStore
+from service.jobs.store import IdempotencyConflict, JobStatus, JobStore, NewJob
+
+
+class Clock:
+    def __init__(self) -> None:
+        self.now = 1_000.0
+
+    def __call__(self) -> float:
+        self.now += 1.0
+        return self.now
+
+
+Opener = Callable[[], JobStore]
+
+
+def _sqlite(tmp_path: Path, clock: Clock) -> Opener:
+    return lambda: SqliteJobStore(tmp_path / "jobs.sqlite3", clock=clock)
+
+
+#: Implementations: name -> (tmp_path, clock) -> opener of a store on the same storage.
+IMPLEMENTATIONS = {"sqlite": _sqlite}
+
+
+@pytest.fixture(params=sorted(IMPLEMENTATIONS))
+def opener(request: pytest.FixtureRequest, tmp_path: Path, clock: Clock) -> Opener:
+    factory: Callable[[Path, Clock], Opener] = IMPLEMENTATIONS[request.param]
+    return factory(tmp_path, clock)
+
+
+@pytest.fixture
+def clock() -> Clock:
+    return Clock()
+
+
+@pytest.fixture
+def store(opener: Opener) -> Iterator[JobStore]:
+    s = opener()
+    yield s
+    s.close()
+
+
+def job(i: int = 1, process: str = "mesh", **kw: object) -> NewJob:
+    return NewJob(f"job-{i}", process, {"size": 0.1 * i, "nested": {"a": [1, 2]}}, seed=i, **kw)  # type: ignore[arg-type]
+
+
+def test_create_then_get_and_inputs(store: JobStore) -> None:
+    record, created = store.create(job(1))
+    assert created
+    assert record.status is JobStatus.accepted
+    got = store.get("job-1")
+    assert got is not None
+    assert (got.id, got.process, got.status, got.seed, got.attempts) == (
+        "job-1", "mesh", JobStatus.accepted, 1, 0,
+    )  # fmt: skip
+    assert store.inputs("job-1") == {"size": 0.1, "nested": {"a": [1, 2]}}
+    assert store.get("nope") is None
+    assert store.inputs("nope") is None
+
+
+def test_idempotency_key_returns_the_same_job_or_conflicts(store: JobStore) -> None:
+    first, created = store.create(job(1, idempotency_key="k", request_hash="h1"))
+    assert created
+    again, created = store.create(job(2, idempotency_key="k", request_hash="h1"))
+    assert not created
+    assert again.id == first.id
+    assert store.get("job-2") is None
+    with pytest.raises(IdempotencyConflict) as exc:
+        store.create(job(3, idempotency_key="k", request_hash="h2"))
+    assert exc.value.job_id == "job-1"
+
+
+def test_status_flow_to_successful_keeps_the_result(store: JobStore) -> None:
+    store.create(job(1))
+    assert not store.set_progress("job-1", 10, "mesh")  # not running yet
+    assert not store.finish("job-1", b"x", {})
+    assert store.mark_running("job-1", 1)
+    assert not store.mark_running("job-1", 2)  # only from accepted
+    assert store.set_progress("job-1", 150, "smooth")
+    running = store.get("job-1")
+    assert running is not None
+    assert (running.status, running.progress, running.message) == (JobStatus.running, 100, "smooth")
+    assert running.started is not None
+    assert store.finish("job-1", b"\x00result", {"triangles": 7})
+    done = store.get("job-1")
+    assert done is not None
+    assert done.status is JobStatus.successful
+    assert done.meta == {"triangles": 7}
+    assert done.finished is not None
+    assert store.result("job-1") == b"\x00result"
+    assert not store.fail("job-1", "late")  # final stays final
+    assert not store.requeue("job-1", "late")
+
+
+def test_fail_and_requeue(store: JobStore) -> None:
+    store.create(job(1))
+    store.mark_running("job-1", 1)
+    assert store.requeue("job-1", "retrying")
+    r = store.get("job-1")
+    assert r is not None
+    assert (r.status, r.attempts, r.started) == (JobStatus.accepted, 1, None)
+    store.mark_running("job-1", 2)
+    assert store.requeue("job-1", "service stopped", keep_attempt=False)
+    r = store.get("job-1")
+    assert r is not None
+    assert r.attempts == 1
+    assert store.fail("job-1", "worker died")
+    r = store.get("job-1")
+    assert r is not None
+    assert (r.status, r.message) == (JobStatus.failed, "worker died")
+    assert store.result("job-1") is None
+
+
+def test_dismiss_any_status_drops_the_result(store: JobStore) -> None:
+    store.create(job(1))
+    store.create(job(2))
+    store.mark_running("job-2", 1)
+    store.finish("job-2", b"r", {})
+    for job_id in ("job-1", "job-2"):
+        r = store.dismiss(job_id)
+        assert r is not None
+        assert r.status is JobStatus.dismissed
+    assert store.result("job-2") is None
+    assert not store.mark_running("job-1", 1)  # a dismissed job never runs
+    assert store.dismiss("nope") is None
+
+
+def test_search_filters_and_pages_newest_first(store: JobStore) -> None:
+    for i in range(1, 8):
+        store.create(job(i, process="mesh" if i % 2 else "smooth"))
+    store.mark_running("job-1", 1)
+    page, total = store.search(limit=3)
+    assert total == 7
+    assert [r.id for r in page] == ["job-7", "job-6", "job-5"]
+    page, total = store.search(limit=3, offset=6)
+    assert [r.id for r in page] == ["job-1"]
+    page, total = store.search(process=["smooth"])
+    assert total == 3
+    assert {r.process for r in page} == {"smooth"}
+    page, total = store.search(status=[JobStatus.running])
+    assert [r.id for r in page] == ["job-1"]
+    page, total = store.search(status=[JobStatus.running, JobStatus.accepted], process=["mesh"])
+    assert total == 4
+
+
+def test_records_unfinished_and_counts(store: JobStore) -> None:
+    for i in range(1, 5):
+        store.create(job(i))
+    store.mark_running("job-2", 1)
+    store.mark_running("job-3", 1)
+    store.finish("job-3", b"", {})
+    store.fail("job-4", "x")
+    assert [r.id for r in store.records(["job-3", "nope", "job-1"])] == ["job-3", "job-1"]
+    assert [r.id for r in store.unfinished()] == ["job-1", "job-2"]
+    counts = store.counts()
+    assert counts == {
+        JobStatus.accepted: 1,
+        JobStatus.running: 1,
+        JobStatus.successful: 1,
+        JobStatus.failed: 1,
+        JobStatus.dismissed: 0,
+    }
+
+
+def test_batch_is_created_whole_or_not_at_all(store: JobStore) -> None:
+    batch = store.create_batch("b1", "mesh", [job(1, batch_id="b1"), job(2, batch_id="b1")])
+    assert batch.job_ids == ("job-1", "job-2")
+    got = store.batch("b1")
+    assert got is not None
+    assert got.job_ids == ("job-1", "job-2")
+    assert got.process == "mesh"
+    r = store.get("job-2")
+    assert r is not None
+    assert r.batch_id == "b1"
+    with pytest.raises(Exception):  # noqa: B017, PT011 - each store raises its own error
+        store.create_batch("b2", "mesh", [job(3, batch_id="b2"), job(1, batch_id="b2")])
+    assert store.get("job-3") is None
+    assert store.batch("b2") is None
+    assert store.batch("nope") is None
+
+
+def test_purge_removes_only_old_final_jobs(store: JobStore, clock: Clock) -> None:
+    for i in range(1, 5):
+        store.create(job(i))
+    store.mark_running("job-1", 1)
+    store.finish("job-1", b"r", {})
+    store.fail("job-2", "x")
+    cutoff = clock.now + 0.5
+    store.dismiss("job-3")  # finished after the cutoff
+    assert store.purge(cutoff) == 2
+    assert store.get("job-1") is None
+    assert store.result("job-1") is None
+    assert store.get("job-2") is None
+    assert store.get("job-3") is not None
+    assert store.get("job-4") is not None  # unfinished: never purged
+
+
+def test_state_survives_reopening(opener: Opener) -> None:
+    first = opener()
+    first.create(job(1))
+    first.mark_running("job-1", 1)
+    first.close()
+    second = opener()
+    try:
+        r = second.get("job-1")
+        assert r is not None
+        assert r.status is JobStatus.running
+        assert [u.id for u in second.unfinished()] == ["job-1"]
+        second.ping()
+    finally:
+        second.close()
+
+
+def test_concurrent_writers_lose_nothing(store: JobStore) -> None:
+    errors: list[BaseException] = []
+
+    def writer(t: int) -> None:
+        try:
+            for i in range(40):
+                store.create(NewJob(f"t{t}-{i}", "mesh", {"i": i}))
+                store.mark_running(f"t{t}-{i}", 1)
+                store.set_progress(f"t{t}-{i}", 50, "mesh")
+        except BaseException as exc:  # collected and re-raised on the test thread
+            errors.append(exc)
+
+    threads = [threading.Thread(target=writer, args=(t,)) for t in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors
+    assert store.counts()[JobStatus.running] == 160
+
+
+def test_inputs_keep_any_json_value(store: JobStore) -> None:
+    inputs = {"big": 10**30, "text": "é\u2028", "nested": [None, True, 1.5, {"k": []}]}
+    store.create(NewJob("j", "mesh", inputs))
+    assert store.inputs("j") == inputs
