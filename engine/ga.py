@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import time
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -58,6 +59,8 @@ BoolArray = NDArray[np.bool_]
 _BLOCK = 4096
 #: A kernel call should evaluate at least this many candidates between progress checks.
 _EVALS_PER_CALL = 200_000
+#: Nodes handed to a thread at a time by the parallel kernels.
+_NODES_PER_CHUNK = 16
 #: Tries of a shorter step toward the GA's best position when the full step is refused.
 _HALVINGS = 2
 
@@ -105,18 +108,24 @@ class _Run:
         picks = np.empty((k, 2, size), dtype=np.int64)
         keys = stream_keys(self.base, sweep, nodes)
         state = (pop_x, pop_y, fit, best, box, work)
-        ga_init(nodes, keys, self.points, *self.args, *state)
         chunk = max(1, -(-_EVALS_PER_CALL // (k * size)))
         done = 0
-        while done < gens:
-            if self.should_stop():
-                raise Cancelled("smoothing stopped between GA generations")
-            count = min(chunk, gens - done)
-            rates = (p.crossover_rate, p.mutation_rate)
-            ga_step(nodes, keys, done + 1, count, self.points, *self.args, *rates, *state,
-                    draws, picks)  # fmt: skip
-            done += count
-            self.progress("smooth", start + share * done / gens)
+        # Small chunks of nodes per thread: a core busy with other work then slows one chunk,
+        # not a fixed half of the set (results do not depend on it).
+        previous = numba.set_parallel_chunksize(_NODES_PER_CHUNK)
+        try:
+            ga_init(nodes, keys, self.points, *self.args, *state)
+            while done < gens:
+                if self.should_stop():
+                    raise Cancelled("smoothing stopped between GA generations")
+                count = min(chunk, gens - done)
+                rates = (p.crossover_rate, p.mutation_rate)
+                ga_step(nodes, keys, done + 1, count, self.points, *self.args, *rates, *state,
+                        draws, picks)  # fmt: skip
+                done += count
+                self.progress("smooth", start + share * done / gens)
+        finally:
+            numba.set_parallel_chunksize(previous)
         moved = np.zeros(k, dtype=np.bool_)
         accept_moves(nodes, best, self.points, self.fitness, *self.args, _HALVINGS, moved)
         return moved
