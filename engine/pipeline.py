@@ -111,7 +111,8 @@ def _improve(
     if should_stop():
         raise Cancelled("stopped before swapping")
     progress("swap", 0.0)
-    swapped_mesh = swap_diagonals(initial) if swap else initial
+    relax = smoothing.method != "none"  # settle displaced nodes before deciding flips
+    swapped_mesh = swap_diagonals(initial, relax=relax) if swap else initial
     progress("swap", 1.0)
     timings["swap"] = time.perf_counter() - t
     second = assess_mesh(swapped_mesh, smoothing) if swap else first

@@ -66,6 +66,20 @@ def test_fixed_edges_never_flip(mesh: Mesh, pick: int) -> None:
     assert _undirected(fixed) <= after
 
 
+@settings(max_examples=25, deadline=None)
+@given(mesh=meshes())
+def test_relaxing_before_swapping_moves_only_interior_nodes_and_never_worsens(mesh: Mesh) -> None:
+    out = swap_diagonals(mesh, relax=True)
+    validate_mesh(out.points, out.triangles)
+    boundary = mesh.boundary_nodes
+    np.testing.assert_array_equal(out.points[boundary], mesh.points[boundary])
+    assert _undirected(out.boundary_edges) == _undirected(mesh.boundary_edges)
+    assert np.isclose(out.areas.sum(), mesh.areas.sum(), rtol=1e-12)
+    q_before = shape_quality(mesh.points, mesh.triangles).min()
+    assert shape_quality(out.points, out.triangles).min() >= q_before - 1e-12
+    assert _improving_flips(out) == []
+
+
 def test_a_sliver_pair_is_flipped_and_a_dart_is_not() -> None:
     pts = np.array([[0.0, 0.0], [1.0, 0.0], [1.1, 0.2], [0.0, 0.25]])
     out = swap_diagonals(Mesh(pts, np.array([[0, 1, 2], [0, 2, 3]])))
