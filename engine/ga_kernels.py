@@ -179,7 +179,12 @@ def ga_init(
     box: FloatArray,
     work: FloatArray,
 ) -> None:
-    """First generation: the current position plus uniform draws in the star's bounding box."""
+    """First generation of every node of the set, evaluated; sets each node's search box.
+
+    Slot 0 holds the node's current position (so the GA can only find better), slots 1..P-1
+    uniform draws in the bounding box of the node's neighbours, which contains every admissible
+    position. ``box`` gets (x0, width, y0, height, scale) per node.
+    """
     size = pop_x.shape[1]
     for s in numba.prange(len(nodes)):
         node, key = nodes[s], keys[s]
