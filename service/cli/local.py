@@ -129,9 +129,10 @@ def run_mesh(args: argparse.Namespace) -> int:
         result = engine.mesh_then_smooth(
             parsed.region, params, np.random.default_rng(args.seed), progress=progress
         )
-    doc = result_document(result, parsed.to_lonlat)
-    doc["summary"]["parameters"]["seed"] = args.seed
-    _write(doc, args.output)
+        doc = result_document(result, parsed.to_lonlat)
+        doc["summary"]["parameters"]["seed"] = args.seed
+        progress("write", 0.0)
+        _write(doc, args.output)
     s = result.smoothed.summary
     print(
         f"{s['count']} triangles, {s['points']} points, min angle {s['min_angle']['min']:.1f} deg, "

@@ -24,6 +24,7 @@ STAGE_LABELS = {
     "swap": "swapping diagonals",
     "smooth": "smoothing",
     "quality": "assessing quality",
+    "write": "writing the result",
     "done": "done",
 }
 
@@ -33,6 +34,7 @@ _STAGE_SPANS = {
     "mesh": (0.05, 0.30),
     "swap": (0.30, 0.35),
     "smooth": (0.35, 0.99),
+    "write": (0.99, 1.0),
 }
 
 
