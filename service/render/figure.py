@@ -281,8 +281,21 @@ def _figure(doc: Mapping[str, Any], options: PictureOptions) -> tuple[Figure, tu
 
 
 def _title(doc: Mapping[str, Any]) -> str:
-    method = doc.get("summary", {}).get("parameters", {}).get("smoothing", {}).get("method")
-    return "evomesh" if method is None else f"evomesh mesh, smoothing: {method}"
+    """What made the mesh, from the parameters the document records.
+
+    >>> params = {"sizing": {"size": 0.03}, "smoothing": {"method": "ga"}}
+    >>> _title({"summary": {"parameters": params}})
+    'evomesh  ·  size 0.03  ·  smoothing ga'
+    """
+    params = doc.get("summary", {}).get("parameters", {})
+    parts = ["evomesh"]
+    size = params.get("sizing", {}).get("size")
+    if size is not None:
+        parts.append(f"size {size:g}")
+    method = params.get("smoothing", {}).get("method")
+    if method is not None:
+        parts.append(f"smoothing {method}")
+    return "  ·  ".join(parts)
 
 
 _SVG_SIZE = re.compile(rb'<svg([^>]*?) width="[^"]*" height="[^"]*"')
