@@ -5,6 +5,7 @@ from __future__ import annotations
 import io
 import math
 import re
+import threading
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any, Literal
 
@@ -298,6 +299,7 @@ def _title(doc: Mapping[str, Any]) -> str:
     return "  ·  ".join(parts)
 
 
+_ONE_AT_A_TIME = threading.Lock()
 _SVG_SIZE = re.compile(rb'<svg([^>]*?) width="[^"]*" height="[^"]*"')
 
 
@@ -312,7 +314,9 @@ def render_picture(
 
     options = options or PictureOptions()
     style: Any = {"svg.hashsalt": "evomesh", "svg.fonttype": "path", "font.family": "DejaVu Sans"}
-    with matplotlib.rc_context(style):
+    # rc_context sets matplotlib's global settings: one picture at a time (the service draws
+    # them in threads; they are CPU-bound, so little is lost).
+    with _ONE_AT_A_TIME, matplotlib.rc_context(style):
         fig, (width, height) = _figure(doc, options)
         out = io.BytesIO()
         if fmt == "png":

@@ -435,6 +435,11 @@ function initToolbar() {
     view.invalidate();
   });
   $("fit").addEventListener("click", fitView);
+  let resizing = null;
+  window.addEventListener("resize", () => {
+    clearTimeout(resizing);
+    resizing = setTimeout(() => state.job && drawHistograms(), 150);
+  });
   view.addEventListener("hover", showReadout);
   document.addEventListener("keydown", (e) => {
     if (e.target.closest("input, textarea, select")) return;
