@@ -56,7 +56,9 @@ async def test_every_asset_the_page_names_is_served(client: httpx.AsyncClient) -
 
 
 def test_the_page_loads_nothing_from_elsewhere() -> None:
-    for path in STATIC.iterdir():
+    for path in STATIC.rglob("*"):
+        if path.suffix not in {".html", ".js", ".css", ".svg"}:
+            continue  # images (the README's screenshots) load nothing
         text = path.read_text(encoding="utf-8")
         # The SVG namespace is a name, not a request.
         urls = set(re.findall(r"(?:https?:)?//[\w.-]+\.\w+[^\s\"')]*", text))
