@@ -25,7 +25,7 @@ from .params import SmoothingParams
 from .result import ProgressFn, SmoothOutcome, StopFn, SweepStats
 from .star import MIN_QUALITY, all_fitness, build_stars, star_min_quality
 
-__all__ = ["laplacian_smooth", "relaxed_points", "smart_laplacian_smooth"]
+__all__ = ["laplacian_smooth", "smart_laplacian_smooth"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -64,24 +64,6 @@ def laplacian_sweep(
         points[n, 0], points[n, 1] = x, y
         moved += 1
     return moved
-
-
-def relaxed_points(mesh: Mesh, sweeps: int = 10) -> FloatArray:
-    """Interior nodes after up to ``sweeps`` smart-Laplacian sweeps (no triangle gets worse than
-    the worst triangle of its star was).
-
-    >>> pts = np.array([[0, 0], [2, 0], [2, 2], [0, 2], [0.3, 1.6]])
-    >>> tri = np.array([[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]])
-    >>> relaxed_points(Mesh(pts, tri))[4].tolist()
-    [1.0, 1.0]
-    """
-    s = build_stars(mesh.triangles, mesh.n_points)
-    points = np.array(mesh.points, dtype=np.float64, order="C")
-    nodes = np.flatnonzero(~mesh.boundary_nodes).astype(np.int64)
-    for _ in range(sweeps):
-        if laplacian_sweep(nodes, points, s.ptr, s.opp_a, s.opp_b, True) == 0:
-            break
-    return points
 
 
 def _laplacian(
