@@ -140,7 +140,7 @@ def swap_diagonals(
     flips are decided on settled positions: swapping a mesh whose nodes are merely displaced
     otherwise rewires it around the displacements and locks in irregular connectivity (on the
     jittered benchmark meshes, swap-then-GA ends with 62-73% of triangles at quality >= 0.91,
-    relax-swap-GA with 92-96%, GA alone with 89-95%).
+    relax-swap-GA with 91-95%, GA alone with 89-95%).
     """
     tri = np.array(mesh.triangles, dtype=np.int64, order="C")
     m = len(tri)
