@@ -32,7 +32,18 @@ class Settings(BaseSettings):
     data_dir: Path = Field(Path("evomesh-data"), description="folder of the SQLite job store")
     workers: int = Field(default_factory=_cpu_count, ge=1, le=256, description="worker processes")
     backend: Literal["local", "dask"] = Field("local", description="compute backend")
-    scheduler: str | None = Field(None, description="Dask scheduler address (backend dask)")
+    scheduler: str | None = Field(
+        None, description="Dask scheduler address (backend dask); none: a local Dask cluster"
+    )
+    scheduler_timeout: float = Field(
+        120.0,
+        gt=0,
+        description="seconds the dask backend waits for a lost scheduler before failing the jobs"
+        " waiting for it",
+    )
+    stop_poll: float = Field(
+        0.25, gt=0, description="seconds between a Dask worker's checks for a stop request"
+    )
 
     max_body_bytes: int = Field(32 * 1024 * 1024, ge=1024, description="request body limit")
     max_vertices: int = Field(100_000, ge=3, description="boundary vertices (or mesh points)")
