@@ -42,6 +42,7 @@ from collections.abc import Coroutine
 from dataclasses import dataclass
 from typing import Any
 
+import dask
 import distributed
 from distributed import Client, Event, Future, KilledWorker, as_completed, get_worker
 from distributed.diagnostics.plugin import WorkerPlugin
@@ -347,6 +348,9 @@ class DaskBackend:
 
     async def _open(self) -> None:
         if self.scheduler is None:
+            # A LocalCluster closes a worker's nanny if, lost-worker-timeout after *any* removal
+            # of it, it is gone again: a worker killed twice 15 s apart would be lost for good.
+            dask.config.set({"distributed.deploy.lost-worker-timeout": "1h"})
             self._cluster = await distributed.LocalCluster(
                 n_workers=self.workers,
                 threads_per_worker=1,

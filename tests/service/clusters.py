@@ -16,6 +16,7 @@ class Clusters:
 
     def __init__(self) -> None:
         self._clusters: dict[int, Any] = {}
+        self._config: Any = None
 
     def address(self, workers: int) -> str:
         cluster = self._clusters.get(workers)
@@ -25,6 +26,9 @@ class Clusters:
         return address
 
     def __enter__(self) -> Clusters:
+        import dask
+
+        self._config = dask.config.set(LOCAL_CLUSTER_CONFIG)
         return self
 
     def __exit__(
@@ -37,6 +41,14 @@ class Clusters:
         for cluster in clusters:
             with contextlib.suppress(Exception):
                 cluster.close()
+        if self._config is not None:
+            self._config.__exit__(kind, value, tb)
+
+
+#: A LocalCluster closes a nanny whose worker has been gone this long at *any* check, and checks
+#: lost-worker-timeout after each removal: a worker killed twice 15 s apart (fault tests do) lost
+#: its nanny for good. Its nanny restarts it in seconds anyway.
+LOCAL_CLUSTER_CONFIG = {"distributed.deploy.lost-worker-timeout": "1h"}
 
 
 def local_cluster(workers: int) -> Any:
