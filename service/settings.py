@@ -53,6 +53,9 @@ class Settings(BaseSettings):
         2e10, gt=0, description="GA fitness evaluations: nodes x population x generations x sweeps"
     )
     max_batch_items: int = Field(10_000, ge=1, description="jobs of one batch")
+    max_queued: int = Field(
+        20_000, ge=1, description="jobs waiting to start; beyond it execution answers 429"
+    )
 
     job_timeout: float = Field(3600.0, gt=0, description="seconds one attempt of a job may run")
     max_attempts: int = Field(3, ge=1, description="starts of a job before it fails for good")
