@@ -38,120 +38,28 @@ import os
 import threading
 import time
 import uuid
+from collections import deque
 from collections.abc import Coroutine
 from dataclasses import dataclass
 from typing import Any
 
 import dask
 import distributed
-from distributed import Client, Event, Future, KilledWorker, as_completed, get_worker
-from distributed.diagnostics.plugin import WorkerPlugin
+from distributed import Client, Event, Future, KilledWorker, as_completed
 
-from .backend import BackendStats, Events, Outcome, OutcomeKind, Task, TaskError, resolve_runner
+from .backend import BackendStats, Events, Outcome, OutcomeKind, Task
+from .dask_worker import TOPIC, Warmup, execute, stop_name
 
-__all__ = ["DaskBackend", "Warmup", "execute"]
+__all__ = ["DaskBackend"]
 
 log = logging.getLogger("evomesh.dask")
 
-#: The Dask event topic workers report on (messages carry the run's key, so services sharing a
-#: scheduler each pick out their own).
-TOPIC = "evomesh"
-#: Progress messages a worker sends at most this often (seconds).
-PROGRESS_INTERVAL = 0.25
 #: Seconds to connect to the scheduler, each try.
 CONNECT_TIMEOUT = 5.0
+#: Seconds a stale rerun's stop Event is kept on the scheduler before it is deleted.
+STALE_STOP_SECONDS = 60.0
 
 
-def _stop_name(key: str) -> str:
-    return f"{key}-stop"
-
-
-# -- on the worker -------------------------------------------------------------------------------
-class _StopFlag:
-    """``should_stop`` of a run on a worker: a scheduler-side Event, asked at most every ``poll``
-    seconds (between asks it costs a clock read)."""
-
-    def __init__(self, key: str, poll: float) -> None:
-        self.event = Event(_stop_name(key))
-        self.poll = poll
-        self.seen = False
-        self._next = time.monotonic() + poll
-
-    def __call__(self) -> bool:
-        if self.seen:
-            return True
-        now = time.monotonic()
-        if now < self._next:
-            return False
-        self._next = now + self.poll
-        return self.ask()
-
-    def ask(self) -> bool:
-        try:
-            self.seen = bool(self.event.is_set())
-        except Exception:  # the scheduler is unreachable: keep going, the service decides
-            return False
-        return self.seen
-
-    def forget(self) -> None:
-        """Delete the Event on the scheduler (an Event cleared without waiters is removed)."""
-        with contextlib.suppress(Exception):
-            self.event.clear()
-
-
-def execute(runner: str, payload: dict[str, Any], key: str, poll: float) -> tuple[Any, ...]:
-    """Run a task on a Dask worker: ``("done", data, meta, s)``, ``("error", reason, s)`` or
-    ``("cancelled", reason, s)``. Failures come back as values; only the worker's death is an
-    error to Dask."""
-    worker = get_worker()
-    worker.log_event(TOPIC, ["started", key, worker.address])
-    # Counting from the start: a short job sends no progress at all.
-    last = time.monotonic()
-
-    def progress(percent: int, message: str) -> None:
-        nonlocal last
-        now = time.monotonic()
-        if now - last >= PROGRESS_INTERVAL:
-            last = now
-            worker.log_event(TOPIC, ["progress", key, int(percent), str(message)])
-
-    stop = _StopFlag(key, poll)
-    t0 = time.perf_counter()
-    reply: tuple[Any, ...]
-    try:
-        data, meta = resolve_runner(runner)(payload, progress, stop)
-        reply = ("done", data, meta)
-    except Exception as exc:
-        if stop.seen or stop.ask():
-            reply = ("cancelled", "stopped on request")
-        elif isinstance(exc, TaskError):
-            reply = ("error", str(exc))
-        else:
-            reply = ("error", f"internal error: {type(exc).__name__}: {exc}")
-    if stop.seen:
-        stop.forget()
-    return (*reply, time.perf_counter() - t0)
-
-
-class Warmup(WorkerPlugin):
-    """Loads the runners and the engine's compiled kernels on every worker as it joins, so the
-    first job does not pay for it (in a thread: the worker keeps answering meanwhile)."""
-
-    idempotent = True
-
-    async def setup(self, worker: distributed.Worker) -> None:
-        await asyncio.to_thread(_warm)
-
-
-def _warm() -> None:
-    import engine
-
-    from . import runners  # noqa: F401
-
-    engine.warmup()
-
-
-# -- in the service --------------------------------------------------------------------------------
 @dataclass(eq=False)
 class _Run:
     """One submission of a task to Dask (Dask-thread state)."""
@@ -222,6 +130,7 @@ class DaskBackend:
         self._to_cancel: list[Future[Any]] = []
         self._flush_scheduled = False
         self._members: set[str] = set()  #: worker addresses
+        self._stale: deque[tuple[float, str]] = deque()  #: (when, key) of stop Events to delete
         self._ac: Any = None  #: as_completed of the current client
         self._more: asyncio.Event | None = None
         self._background: set[asyncio.Task[Any]] = set()
@@ -398,6 +307,7 @@ class DaskBackend:
                 first.set()
             while client.status == "running":
                 await asyncio.sleep(0.1)
+                self._tidy(client)
             log.error("lost the Dask scheduler at %s", self._address)
             await self._drop(client)
 
@@ -423,6 +333,13 @@ class DaskBackend:
         for run in waiting:
             self._queue(self._rekeyed(run))
 
+    def _tidy(self, client: Client) -> None:
+        """Delete the stop Events of stale reruns after a while (they had time to see them)."""
+        now = time.monotonic()
+        while self._stale and now - self._stale[0][0] > STALE_STOP_SECONDS:
+            key = self._stale.popleft()[1]
+            self._spawn(Event(stop_name(key), client=client).clear(), "a stop cleanup")
+
     async def _drop(self, client: Client) -> None:
         """The connection is gone (or being given up): started runs crashed, waiting ones wait."""
         was_connected = self._connected
@@ -445,8 +362,8 @@ class DaskBackend:
                 run.future = None
                 if run not in self._waiting:
                     self._waiting.append(run)
-        with contextlib.suppress(Exception):
-            await asyncio.wait_for(client.close(), 5)
+        # In the background: a client that lost its scheduler may take seconds to give up.
+        self._spawn(asyncio.wait_for(client.close(), 30), "closing a Dask client")
 
     def _expire_waiting(self) -> None:
         """Runs waiting for a scheduler that has not come back in time end with an error."""
@@ -475,7 +392,7 @@ class DaskBackend:
         if client is not None:
             # Started runs stop at their next poll instead of running on for nobody.
             stops = [
-                Event(_stop_name(r.key), client=client).set()
+                Event(stop_name(r.key), client=client).set()
                 for r in self._runs.values()
                 if r.started and not r.finished and not r.stop_set
             ]
@@ -583,7 +500,7 @@ class DaskBackend:
 
     def _set_stop(self, key: str) -> None:
         if self._client is not None:
-            self._spawn(Event(_stop_name(key), client=self._client).set(), "a stop request")
+            self._spawn(Event(stop_name(key), client=self._client).set(), "a stop request")
 
     def _stop(self, run: _Run, why: OutcomeKind) -> None:
         """Ask a started run to stop; restart its worker if it has not after the grace."""
@@ -650,7 +567,7 @@ class DaskBackend:
         if run.stop_set and self._client is not None:
             # The run may have ended before it saw the Event: delete it either way.
             client = self._client
-            self._spawn(Event(_stop_name(run.key), client=client).clear(), "a stop cleanup")
+            self._spawn(Event(stop_name(run.key), client=client).clear(), "a stop cleanup")
         if run.stopping is not None and outcome.kind is not OutcomeKind.crashed:
             why = self._why(run.stopping, run.task)
             outcome = Outcome(run.stopping, reason=why, seconds=outcome.seconds)
@@ -671,6 +588,7 @@ class DaskBackend:
                 # ours to stop, if the key is ours.
                 if key.startswith(self._prefix):
                     self._set_stop(key)
+                    self._stale.append((time.monotonic(), key))
                 return
             run.started = True
             run.worker = str(msg[2])
