@@ -3,10 +3,13 @@
 Beyond ``max_queued`` waiting jobs, execution and batches are refused whole with 429 and a
 ``Retry-After`` estimated from how fast jobs have been leaving the queue lately.
 
->>> rate = Throughput(window=10.0, clock=iter([0.0, 1.0, 2.0, 2.0]).__next__)
->>> rate.record(); rate.record(); rate.record()
->>> rate.per_second()
+>>> clock = iter([0.0, 10.0, 11.0, 12.0, 12.0, 30.0]).__next__
+>>> rate = Throughput(window=10.0, clock=clock)  # created at 0
+>>> rate.record(); rate.record(); rate.record()  # at 10, 11 and 12
+>>> rate.per_second()  # at 12: three in the last 10 s
 0.3
+>>> rate.per_second()  # at 30: none in the last 10 s
+0.0
 >>> retry_after(excess=10, per_second=2.0)
 5
 """
@@ -31,8 +34,9 @@ class QueueFull(Exception):
 
     def __init__(self, waiting: int, limit: int, wanted: int, retry_after: int) -> None:
         jobs = "a job" if wanted == 1 else f"{wanted} jobs"
+        are = "job is" if waiting == 1 else "jobs are"
         super().__init__(
-            f"{waiting} jobs are waiting to start and at most {limit} may wait: {jobs} cannot be"
+            f"{waiting} {are} waiting to start and at most {limit} may wait: {jobs} cannot be"
             f" accepted now; try again in {retry_after} s"
         )
         self.waiting = waiting
@@ -51,6 +55,7 @@ class Throughput:
         self.window = window
         self._clock = clock
         self._times: deque[float] = deque(maxlen=keep)
+        self._since = clock()  #: a young service measures over its life, not the whole window
 
     def record(self) -> None:
         self._times.append(self._clock())
@@ -61,9 +66,10 @@ class Throughput:
             self._times.popleft()
         if not self._times:
             return 0.0
-        # With a full deque the oldest kept time, not the window, bounds the span measured.
-        span = self.window if len(self._times) < (self._times.maxlen or 0) else now - self._times[0]
-        return len(self._times) / max(span, 1e-3)
+        span = min(self.window, now - self._since)
+        if len(self._times) == self._times.maxlen:  # full: the oldest kept time bounds the span
+            span = now - self._times[0]
+        return len(self._times) / max(span, 1.0)
 
 
 def retry_after(excess: int, per_second: float) -> int:
