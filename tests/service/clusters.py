@@ -27,6 +27,7 @@ class Clusters:
 
     def __enter__(self) -> Clusters:
         import dask
+        import distributed  # noqa: F401 - its defaults first, or leaving the set drops them
 
         self._config = dask.config.set(LOCAL_CLUSTER_CONFIG)
         return self

@@ -7,7 +7,7 @@ cancellations are reported as such, and the backend keeps working after each.
 from __future__ import annotations
 
 import time
-from collections.abc import AsyncIterator, Callable, Iterator
+from collections.abc import AsyncIterator, Callable
 from pathlib import Path
 from typing import Any
 
@@ -86,12 +86,6 @@ def anyio_backend(request: pytest.FixtureRequest) -> tuple[str, dict[str, Any]]:
     """Both event loops uvicorn may run: the backend must not depend on either's quirks."""
     backend: tuple[str, dict[str, Any]] = request.param
     return backend
-
-
-@pytest.fixture(scope="module")
-def clusters() -> Iterator[Clusters]:
-    with Clusters() as started:
-        yield started
 
 
 @pytest.fixture(params=sorted(IMPLEMENTATIONS))
