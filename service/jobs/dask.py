@@ -141,7 +141,8 @@ class DaskBackend:
         self._events = events
         self._loop = asyncio.get_running_loop()
         self._closing = False
-        self._dloop = asyncio.new_event_loop()
+        # A plain asyncio loop whatever the service runs on (uvicorn may pick uvloop).
+        self._dloop = asyncio.SelectorEventLoop()
         self._thread = threading.Thread(target=self._run_loop, name="evomesh-dask", daemon=True)
         self._thread.start()
         await self._on_dask(self._open())
@@ -318,7 +319,10 @@ class DaskBackend:
         identity = await client.scheduler.identity(n_workers=-1)
         self._members = set(identity.get("workers", {}))
         if self.warmup:
-            await client.register_plugin(Warmup(), name="evomesh-warmup")
+            try:
+                await client.register_plugin(Warmup(), name="evomesh-warmup")
+            except Exception as exc:  # a worker without evomesh: its jobs fail, with the reason
+                log.warning("warming up the Dask workers failed: %s", exc)
         self._client = client
         self._ac = as_completed(loop=client.loop)
         self._more = asyncio.Event()

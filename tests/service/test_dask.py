@@ -12,7 +12,7 @@ import httpx
 import pytest
 
 from .clusters import Clusters
-from .conftest import ClientFactory, app_of, assert_problem, submit, wait_for
+from .conftest import SQUARE, ClientFactory, app_of, assert_problem, submit, wait_for
 
 pytestmark = pytest.mark.anyio
 
@@ -103,3 +103,20 @@ async def test_backpressure_applies_on_dask_too(dask_client: DaskClient) -> None
     assert int(r.headers["retry-after"]) >= 1
     for job in busy:
         await client.delete(f"/jobs/{job['jobID']}")
+
+
+async def test_without_a_scheduler_the_service_starts_a_local_cluster(
+    make_client: ClientFactory,
+) -> None:
+    client = await make_client(backend="dask", workers=1)
+    ready = (await client.get("/ready")).json()
+    assert (ready["backend"], ready["workers"]["configured"], ready["workers"]["alive"]) == (
+        "dask",
+        1,
+        1,
+    )
+    address = app_of(client).state.manager.backend.worker_addresses()[0]
+    assert address.startswith("tcp://127.0.0.1:")  # loopback only
+    inputs = {"boundary": SQUARE, "size": 0.5, "smoothing": {"method": "none"}}
+    job = await submit(client, "mesh", inputs)
+    assert (await wait_for(client, job["jobID"], timeout=60))["status"] == "successful"
