@@ -4,8 +4,9 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
-# Debian packages the test suite needs (installed when missing and run as root).
-APT_PACKAGES :=
+# Debian packages the test suite needs (installed when missing and run as root): chromium for
+# the web viewer's end-to-end tests (headless, driven over its DevTools pipe).
+APT_PACKAGES := chromium
 # Debian libraries the gmsh wheel links against (for the side-by-side benchmarks).
 BENCH_APT_PACKAGES := libglu1-mesa libxcursor1 libxft2 libxinerama1 libgomp1
 PYTEST_ARGS ?=

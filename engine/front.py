@@ -863,6 +863,8 @@ def advance_front(
     ):  # fmt: skip
         raise MeshingError("front initialisation ran out of room")
     sf = field.as_tuple()
+    # Chunks no larger than the mesh, so small jobs do not allocate for large ones.
+    budget = max(min(budget, 2 * est), 256)
     while True:
         state.grow(budget)
         status = _run(

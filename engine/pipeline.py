@@ -114,7 +114,8 @@ def _improve(
     swapped_mesh = swap_diagonals(initial) if swap else initial
     progress("swap", 1.0)
     timings["swap"] = time.perf_counter() - t
-    second = assess_mesh(swapped_mesh, smoothing) if swap else first
+    # Unchanged meshes are not assessed again.
+    second = first if swapped_mesh is initial else assess_mesh(swapped_mesh, smoothing)
     t = time.perf_counter()
     if should_stop():
         raise Cancelled("stopped before smoothing")
@@ -122,7 +123,8 @@ def _improve(
     outcome = smooth_points(swapped_mesh, smoothing, rng, progress, should_stop)
     progress("smooth", 1.0)
     timings["smooth"] = time.perf_counter() - t
-    final = assess_mesh(swapped_mesh.with_points(outcome.points), smoothing)
+    unmoved = np.array_equal(outcome.points, swapped_mesh.points)
+    final = second if unmoved else assess_mesh(swapped_mesh.with_points(outcome.points), smoothing)
     timings["total"] = time.perf_counter() - started
     return Result(
         initial=first,

@@ -23,7 +23,7 @@ from .jobs.store import JobStore
 from .metrics import Metrics
 from .middleware import BodyLimit
 from .processes import PROCESSES, Process
-from .routers import batches, jobs, landing
+from .routers import batches, jobs, landing, viewer
 from .routers.processes import build_router
 from .settings import Settings
 
@@ -74,6 +74,7 @@ def create_app(
     app.include_router(build_router(procs))
     app.include_router(jobs.router)
     app.include_router(batches.router)
+    viewer.install(app)
     if settings.cors_origins:
         app.add_middleware(
             CORSMiddleware,

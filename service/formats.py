@@ -2,10 +2,11 @@
 
 ``json`` is the document as stored; ``geojson`` a FeatureCollection of triangles carrying their
 quality figures; ``vtu`` (ParaView) and ``msh`` (Gmsh 2.2, binary) are written by meshio with node
-fitness as point data and triangle quality as cell data. Pictures (svg, png) register here too.
+fitness as point data and triangle quality as cell data. ``svg`` and ``png`` are pictures drawn by
+:mod:`service.render`; their query options (``color``, ``compare``, ``width``...) are read there.
 
 >>> sorted(FORMATS)
-['geojson', 'json', 'msh', 'vtu']
+['geojson', 'json', 'msh', 'png', 'svg', 'vtu']
 """
 
 from __future__ import annotations
@@ -15,10 +16,13 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import orjson
+
+from .problems import Problem
+from .render import PictureError, PictureOptions, render_picture
 
 __all__ = ["FORMATS", "ResultFormat", "StoredResult", "register_format"]
 
@@ -130,4 +134,31 @@ register_format(
         _meshio("gmsh22", ".msh", binary=True),
         "Gmsh 2.2 (binary)",
     )
+)
+
+
+def _picture(kind: Literal["png", "svg"]) -> Renderer:
+    def render(result: StoredResult, options: Mapping[str, str]) -> bytes:
+        try:
+            return render_picture(result.doc, kind, PictureOptions.from_query(options))
+        except PictureError as exc:
+            raise Problem(
+                400, exc.message, kind="invalid-parameter", parameter=exc.parameter
+            ) from None
+
+    return render
+
+
+_PICTURE_OPTIONS = (
+    "triangles coloured by quality; options color=quality|fitness|radius_ratio|min_angle|"
+    "max_angle, compare=1 (before and after with quality histograms), width, height, worst, "
+    "edges, vmin, vmax"
+)
+register_format(
+    ResultFormat(
+        "svg", "image/svg+xml", ".svg", _picture("svg"), f"SVG picture: {_PICTURE_OPTIONS}"
+    )
+)
+register_format(
+    ResultFormat("png", "image/png", ".png", _picture("png"), f"PNG picture: {_PICTURE_OPTIONS}")
 )

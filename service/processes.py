@@ -263,7 +263,7 @@ _MESH_OUTPUT = {
         "description": (
             "points, counter-clockwise 0-based triangles, per-node fitness, per-triangle "
             "quality figures and the summary of every stage; GET /jobs/{jobID}/results?f= "
-            "json | geojson | vtu | msh"
+            "json | geojson | vtu | msh | svg | png"
         ),
         "schema": {
             "type": "object",

@@ -7,7 +7,8 @@ import sys
 from collections.abc import Sequence
 from importlib.metadata import PackageNotFoundError, version
 
-from . import local, serve
+from . import client, local, serve
+from .api import ClientError
 
 __all__ = ["CliError", "build_parser", "main"]
 
@@ -30,7 +31,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"evomesh {package_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for module in (local, serve):
+    for module in (local, serve, client):
         module.register(sub)
     return parser
 
@@ -46,6 +47,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("evomesh: interrupted", file=sys.stderr)
         return 130
+    except ClientError as exc:  # the service said no, or could not be reached
+        print(f"evomesh: error: {exc}", file=sys.stderr)
+        return exc.code
     except local.USER_ERRORS as exc:
         message = " ".join(str(exc).split())
         print(f"evomesh: error: {message}", file=sys.stderr)

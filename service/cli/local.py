@@ -15,6 +15,7 @@ from engine import EngineError, PipelineParams, SizingParams, SmoothingParams
 
 from ..document import CELL_FIELDS, mesh_from_document, result_document
 from ..geojson import BoundaryInputError, parse_region
+from .progress import StageBar
 
 #: Errors that are the user's, printed on one line with exit code 2.
 USER_ERRORS = (EngineError, BoundaryInputError, ValueError, OSError, json.JSONDecodeError)
@@ -65,7 +66,7 @@ def register(sub: Any) -> None:
     p.add_argument("--size-max", type=_positive(float))
     p.add_argument("--wgs84", action="store_true", help="coordinates are lon/lat")
     _add_smoothing_flags(p, "--smooth")
-    p.add_argument("-o", "--output", required=True, help="output file (.json)")
+    p.add_argument("-o", "--output", required=True, help="output file: .json, .png or .svg")
     p.set_defaults(handler=run_mesh)
 
     s = sub.add_parser("smooth", help="swap and smooth an existing mesh document")
@@ -103,9 +104,15 @@ def _smoothing(args: argparse.Namespace) -> SmoothingParams:
 
 def _write(doc: dict[str, Any], path: str) -> None:
     out = Path(path)
-    if out.suffix.lower() != ".json":
-        raise ValueError(f"unsupported output format {out.suffix!r}; use .json")
-    out.write_text(json.dumps(doc))
+    suffix = out.suffix.lower()
+    if suffix == ".json":
+        out.write_text(json.dumps(doc))
+    elif suffix in (".png", ".svg"):  # a picture, coloured by quality
+        from ..render import render_picture
+
+        out.write_bytes(render_picture(doc, "png" if suffix == ".png" else "svg"))
+    else:
+        raise ValueError(f"unsupported output format {out.suffix!r}; use .json, .png or .svg")
 
 
 def run_mesh(args: argparse.Namespace) -> int:
@@ -118,10 +125,14 @@ def run_mesh(args: argparse.Namespace) -> int:
         swap=not args.no_swap,
         smoothing=_smoothing(args),
     )
-    result = engine.mesh_then_smooth(parsed.region, params, np.random.default_rng(args.seed))
-    doc = result_document(result, parsed.to_lonlat)
-    doc["summary"]["parameters"]["seed"] = args.seed
-    _write(doc, args.output)
+    with StageBar() as progress:  # a bar on a terminal, once the run takes a while
+        result = engine.mesh_then_smooth(
+            parsed.region, params, np.random.default_rng(args.seed), progress=progress
+        )
+        doc = result_document(result, parsed.to_lonlat)
+        doc["summary"]["parameters"]["seed"] = args.seed
+        progress("write", 0.0)
+        _write(doc, args.output)
     s = result.smoothed.summary
     print(
         f"{s['count']} triangles, {s['points']} points, min angle {s['min_angle']['min']:.1f} deg, "

@@ -12,6 +12,7 @@ from ..deps import MetricsDep
 from ..problems import Problem
 from ..schemas import Conformance, LandingPage
 from ..views import REL_PROCESS, base_url, link
+from .viewer import page, prefers_html
 
 router = APIRouter(tags=["Capabilities"])
 
@@ -27,8 +28,16 @@ CONFORMANCE = [
 ]
 
 
-@router.get("/", response_model=LandingPage, summary="Landing page")
-def landing(request: Request) -> dict[str, Any]:
+@router.get(
+    "/",
+    response_model=LandingPage,
+    summary="Landing page (the web viewer for clients that ask for HTML)",
+    responses={200: {"content": {"text/html": {"schema": {"type": "string"}}}}},
+)
+def landing(request: Request, response: Response) -> Any:
+    if prefers_html(request.headers.get("accept", "")):
+        return page()
+    response.headers["Vary"] = "Accept"  # the same URL answers HTML to browsers
     base = base_url(request)
     return {
         "title": "evomesh",
@@ -45,6 +54,7 @@ def landing(request: Request) -> dict[str, Any]:
                 "the API definition",
             ),
             link(f"{base}/docs", "service-doc", "text/html", "the API documentation"),
+            link(f"{base}/viewer", "alternate", "text/html", "the web viewer"),
             link(
                 f"{base}/conformance",
                 "http://www.opengis.net/def/rel/ogc/1.0/conformance",
