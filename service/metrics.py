@@ -56,6 +56,12 @@ class Metrics:
             "evomesh_job_outcomes", "Runs ended, by outcome", ["process", "outcome"],
             registry=self.registry,
         )  # fmt: skip
+        self.refused = Counter(
+            "evomesh_jobs_refused",
+            "Jobs refused because too many were waiting (429)",
+            ["process"],
+            registry=self.registry,
+        )
         self.retries = Counter(
             "evomesh_job_retries", "Runs started again after a crash", registry=self.registry
         )

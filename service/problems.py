@@ -26,6 +26,7 @@ from starlette.responses import JSONResponse
 from engine import InvalidBoundary, InvalidMesh
 
 from .geojson import BoundaryInputError
+from .jobs.admission import QueueFull
 
 __all__ = [
     "MEDIA_TYPE",
@@ -153,6 +154,15 @@ def problem_for(exc: Exception) -> Problem:
         elif exc.point is not None:
             pointer += f"/points/{exc.point}"
         return Problem(422, exc.message, kind="invalid-mesh", pointer=pointer)
+    if isinstance(exc, QueueFull):
+        return Problem(
+            429,
+            str(exc),
+            kind="queue-full",
+            headers={"Retry-After": str(exc.retry_after)},
+            waiting=exc.waiting,
+            limit=exc.limit,
+        )
     if isinstance(exc, StarletteHTTPException):
         return Problem(
             exc.status_code, str(exc.detail), headers=getattr(exc, "headers", None) or {}
@@ -184,6 +194,7 @@ def install(app: FastAPI) -> None:
         BoundaryInputError,
         InvalidBoundary,
         InvalidMesh,
+        QueueFull,
         Exception,
     ):
         app.add_exception_handler(kind, _handle)

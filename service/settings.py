@@ -32,7 +32,18 @@ class Settings(BaseSettings):
     data_dir: Path = Field(Path("evomesh-data"), description="folder of the SQLite job store")
     workers: int = Field(default_factory=_cpu_count, ge=1, le=256, description="worker processes")
     backend: Literal["local", "dask"] = Field("local", description="compute backend")
-    scheduler: str | None = Field(None, description="Dask scheduler address (backend dask)")
+    scheduler: str | None = Field(
+        None, description="Dask scheduler address (backend dask); none: a local Dask cluster"
+    )
+    scheduler_timeout: float = Field(
+        120.0,
+        gt=0,
+        description="seconds the dask backend waits for a lost scheduler before failing the jobs"
+        " waiting for it",
+    )
+    stop_poll: float = Field(
+        0.25, gt=0, description="seconds between a Dask worker's checks for a stop request"
+    )
 
     max_body_bytes: int = Field(32 * 1024 * 1024, ge=1024, description="request body limit")
     max_vertices: int = Field(100_000, ge=3, description="boundary vertices (or mesh points)")
@@ -42,6 +53,9 @@ class Settings(BaseSettings):
         2e10, gt=0, description="GA fitness evaluations: nodes x population x generations x sweeps"
     )
     max_batch_items: int = Field(10_000, ge=1, description="jobs of one batch")
+    max_queued: int = Field(
+        20_000, ge=1, description="jobs waiting to start; beyond it execution answers 429"
+    )
 
     job_timeout: float = Field(3600.0, gt=0, description="seconds one attempt of a job may run")
     max_attempts: int = Field(3, ge=1, description="starts of a job before it fails for good")

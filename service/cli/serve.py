@@ -18,8 +18,19 @@ def register(sub: Any) -> None:
     p.add_argument("--port", type=int, default=8000, help="port (default 8000)")
     p.add_argument("--data-dir", type=Path, default=None, help="job store folder")
     p.add_argument("--workers", type=int, default=None, help="worker processes (default: CPUs)")
-    p.add_argument("--backend", default=None, help="compute backend (default local)")
-    p.add_argument("--scheduler", default=None, help="Dask scheduler address (backend dask)")
+    p.add_argument(
+        "--backend",
+        choices=["local", "dask"],
+        default=None,
+        help="compute backend: a local process pool (default) or a Dask cluster",
+    )
+    p.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="tcp://HOST:8786",
+        help="Dask scheduler address (backend dask; none: a Dask cluster of --workers processes "
+        "on 127.0.0.1)",
+    )
     p.set_defaults(handler=run)
 
 

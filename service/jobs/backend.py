@@ -134,8 +134,24 @@ def _local(settings: Settings) -> ComputeBackend:
     return LocalBackend(workers=settings.workers, cancel_grace=settings.cancel_grace)
 
 
+def _dask(settings: Settings) -> ComputeBackend:
+    try:
+        from .dask import DaskBackend
+    except ImportError as exc:  # the optional extra is missing
+        raise ValueError(
+            f"the dask backend needs the dask extra (pip install 'evomesh[dask]'): {exc}"
+        ) from exc
+    return DaskBackend(
+        settings.scheduler,
+        workers=settings.workers,
+        cancel_grace=settings.cancel_grace,
+        stop_poll=settings.stop_poll,
+        reconnect_timeout=settings.scheduler_timeout,
+    )
+
+
 #: Backend factories by name (``Settings.backend``).
-BACKENDS: dict[str, Callable[[Settings], ComputeBackend]] = {"local": _local}
+BACKENDS: dict[str, Callable[[Settings], ComputeBackend]] = {"local": _local, "dask": _dask}
 
 
 def make_backend(settings: Settings) -> ComputeBackend:

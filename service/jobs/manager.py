@@ -20,6 +20,7 @@ from typing import Any
 from ..metrics import Metrics
 from ..processes import PROCESSES, Prepared, Process
 from ..settings import Settings
+from .admission import QueueFull, Throughput, retry_after
 from .backend import ComputeBackend, Outcome, OutcomeKind, Task
 from .store import BatchRecord, JobRecord, JobStore, NewJob
 
@@ -58,6 +59,8 @@ class JobManager:
         self.metrics = metrics
         self.processes = processes if processes is not None else PROCESSES
         self._inflight: dict[str, int] = {}  #: job id -> attempt, handed to the backend
+        self._running: set[str] = set()  #: job ids of _inflight that started
+        self._leaving = Throughput()  #: jobs leaving the queue, for Retry-After estimates
         self._background: set[asyncio.Task[Any]] = set()
         self._purger: asyncio.Task[None] | None = None
         self._closing = False
@@ -80,6 +83,7 @@ class JobManager:
             # Interrupted by us, not by the job: the next start runs it again, uncounted.
             self.store.requeue(job_id, "queued again after a service stop", keep_attempt=False)
         self._inflight.clear()
+        self._running.clear()
 
     def recover(self) -> int:
         """Queue again the jobs a stopped service left accepted or running."""
@@ -101,6 +105,19 @@ class JobManager:
         return count
 
     # -- requests ------------------------------------------------------------------------------
+    @property
+    def waiting(self) -> int:
+        """Jobs handed to the backend that have not started yet."""
+        return len(self._inflight) - len(self._running)
+
+    def admit(self, process: str, count: int) -> None:
+        """Raise :class:`QueueFull` unless ``count`` more jobs may wait (``max_queued``)."""
+        waiting, limit = self.waiting, self.settings.max_queued
+        if waiting + count > limit:
+            self.metrics.refused.labels(process).inc(count)
+            wait = retry_after(waiting + count - limit, self._leaving.per_second())
+            raise QueueFull(waiting, limit, count, wait)
+
     def submit(
         self,
         process: Process,
@@ -109,7 +126,9 @@ class JobManager:
         idempotency_key: str | None = None,
         request_hash: str | None = None,
     ) -> tuple[JobRecord, bool]:
-        """Create a job (written before anyone hears of it) and queue it."""
+        """Create a job (written before anyone hears of it) and queue it; :class:`QueueFull`
+        when too many wait already."""
+        self.admit(process.id, 1)
         job = NewJob(
             id=str(uuid.uuid4()),
             process=process.id,
@@ -126,7 +145,9 @@ class JobManager:
         return record, created
 
     def submit_batch(self, process: Process, items: Sequence[Prepared]) -> BatchRecord:
-        """Create the jobs of a batch in one transaction, then queue them."""
+        """Create the jobs of a batch in one transaction, then queue them: all of them, or none
+        (:class:`QueueFull`)."""
+        self.admit(process.id, len(items))
         batch_id = str(uuid.uuid4())
         jobs = [
             NewJob(str(uuid.uuid4()), process.id, p.inputs, p.seed, batch_id=batch_id)
@@ -167,6 +188,8 @@ class JobManager:
         if not self.store.mark_running(job_id, attempt):
             self.backend.cancel(job_id)  # dismissed meanwhile
             return
+        if job_id in self._inflight:
+            self._running.add(job_id)
         if attempt > 1:
             self.metrics.retries.inc()
         log.info("job started", extra={"job_id": job_id, "attempt": attempt})
@@ -178,6 +201,8 @@ class JobManager:
         attempt = self._inflight.pop(job_id, None)
         if attempt is None:
             return
+        self._running.discard(job_id)
+        self._leaving.record()
         record = self.store.get(job_id)
         process = record.process if record else "?"
         self.metrics.outcomes.labels(process, outcome.kind.value).inc()

@@ -17,7 +17,7 @@ from ..processes import Prepared, Process, Where, inputs_at
 from ..schemas import BatchInfo
 from ..settings import Settings
 from ..views import base_url, batch_info
-from .processes import off_loop_if_large
+from .processes import QUEUE_FULL, off_loop_if_large
 
 router = APIRouter(prefix="/batches", tags=["Batches"], dependencies=[Depends(require_api_key)])
 
@@ -107,7 +107,10 @@ def _prepare_all(body: BatchRequest, process: Process, settings: Settings) -> li
     status_code=201,
     summary="Create a batch of jobs (all or none)",
     response_model=None,
-    responses={201: {"model": BatchInfo, "headers": {"Location": {"schema": {"type": "string"}}}}},
+    responses={
+        201: {"model": BatchInfo, "headers": {"Location": {"schema": {"type": "string"}}}},
+        **QUEUE_FULL,
+    },
 )
 async def create_batch(
     body: BatchRequest, request: Request, manager: ManagerDep, settings: SettingsDep
@@ -132,6 +135,15 @@ async def create_batch(
             kind="limit-exceeded",
             pointer="/features" if body.features is not None else "/requests",
         )
+    if count > settings.max_queued:
+        raise Problem(
+            422,
+            f"the batch has {count} items, more than the {settings.max_queued} jobs that may wait"
+            " to start (max_queued); split it",
+            kind="limit-exceeded",
+            pointer="/features" if body.features is not None else "/requests",
+        )
+    manager.admit(process.id, count)  # refuse early, before the work of preparing every item
     prepared = await off_loop_if_large(request, _prepare_all, body, process, settings)
     batch = manager.submit_batch(process, prepared)
     base = base_url(request)

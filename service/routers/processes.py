@@ -94,12 +94,23 @@ IdempotencyKey = Annotated[
     ),
 ]
 
+#: 429: too many jobs wait to start (``max_queued``); nothing was created.
+QUEUE_FULL: dict[int | str, dict[str, Any]] = {
+    429: {
+        "description": "too many jobs are waiting to start; nothing was created",
+        "headers": {
+            "Retry-After": {"schema": {"type": "integer"}, "description": "seconds to wait"}
+        },
+    }
+}
+
 _EXECUTE_RESPONSES: dict[int | str, dict[str, Any]] = {
     201: {
         "model": StatusInfo,
         "description": "job created (or the job of a repeated Idempotency-Key)",
         "headers": {"Location": {"schema": {"type": "string"}, "description": "the job"}},
-    }
+    },
+    **QUEUE_FULL,
 }
 
 

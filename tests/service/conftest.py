@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import time
-from collections.abc import AsyncIterator, Awaitable, Callable
+from collections.abc import AsyncIterator, Awaitable, Callable, Iterator
 from contextlib import AsyncExitStack
 from pathlib import Path
 from typing import Any
@@ -17,6 +17,7 @@ from service.app import create_app
 from service.processes import PROCESSES, Process
 from service.settings import Settings
 
+from .clusters import Clusters
 from .tasks import process_for
 
 FINAL = {"successful", "failed", "dismissed"}
@@ -30,6 +31,13 @@ TEST_PROCESSES: dict[str, Process] = {
 }
 
 SQUARE = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1], [0, 0]]]}
+
+
+@pytest.fixture(scope="module")
+def clusters() -> Iterator[Clusters]:
+    """Dask LocalClusters (worker processes, 127.0.0.1) shared by a module's tests."""
+    with Clusters() as started:
+        yield started
 
 
 @pytest.fixture

@@ -65,9 +65,11 @@ def bug(
 def crash(
     payload: dict[str, Any], progress: ProgressCallback, should_stop: Stop
 ) -> tuple[bytes, dict[str, Any]]:
-    """Kill the worker: always, or only while the marker file does not exist yet."""
+    """Kill the worker (after ``delay`` seconds): always, or only while the marker file does not
+    exist yet."""
     marker = payload.get("marker")
     if marker is None or not Path(marker).exists():
+        time.sleep(float(payload.get("delay", 0.0)))
         if marker is not None:
             Path(marker).touch()
         os.kill(os.getpid(), signal.SIGKILL)
@@ -79,6 +81,7 @@ class SleepInputs(BaseModel):
 
     seconds: float = Field(1.0, ge=0, le=120)
     marker: str | None = None
+    delay: float = Field(0.0, ge=0, le=60)  #: crash: seconds of work before the crash
 
 
 class SleepExecute(ExecuteRequest):

@@ -1,0 +1,117 @@
+"""What runs on a Dask worker for the Dask backend (:mod:`service.jobs.dask`).
+
+:func:`execute` runs one task: it reports ``started`` (with the worker's address) and progress
+(rate-limited) as Dask events on :data:`TOPIC`, and hands the runner a ``should_stop`` that asks
+the run's stop :class:`distributed.Event` at most every ``poll`` seconds. Every outcome but the
+worker's death comes back as a value. :class:`Warmup` loads the engine on each worker as it joins.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import time
+from typing import Any
+
+import distributed
+from distributed import Event, get_worker
+from distributed.diagnostics.plugin import WorkerPlugin
+
+from .backend import TaskError, resolve_runner
+
+__all__ = ["PROGRESS_INTERVAL", "TOPIC", "Warmup", "execute", "stop_name"]
+
+#: The Dask event topic workers report on (messages carry the run's key, so services sharing a
+#: scheduler each pick out their own).
+TOPIC = "evomesh"
+#: Progress messages a worker sends at most this often (seconds).
+PROGRESS_INTERVAL = 0.25
+
+
+def stop_name(key: str) -> str:
+    """The name of a run's stop Event."""
+    return f"{key}-stop"
+
+
+class _StopFlag:
+    """``should_stop`` of a run on a worker: a scheduler-side Event, asked at most every ``poll``
+    seconds (between asks it costs a clock read)."""
+
+    def __init__(self, key: str, poll: float) -> None:
+        self.event = Event(stop_name(key))
+        self.poll = poll
+        self.seen = False
+        self._next = time.monotonic() + poll
+
+    def __call__(self) -> bool:
+        if self.seen:
+            return True
+        now = time.monotonic()
+        if now < self._next:
+            return False
+        self._next = now + self.poll
+        return self.ask()
+
+    def ask(self) -> bool:
+        try:
+            self.seen = bool(self.event.is_set())
+        except Exception:  # the scheduler is unreachable: keep going, the service decides
+            return False
+        return self.seen
+
+    def forget(self) -> None:
+        """Delete the Event on the scheduler (an Event cleared without waiters is removed)."""
+        with contextlib.suppress(Exception):
+            self.event.clear()
+
+
+def execute(runner: str, payload: dict[str, Any], key: str, poll: float) -> tuple[Any, ...]:
+    """Run a task on a Dask worker: ``("done", data, meta, s)``, ``("error", reason, s)`` or
+    ``("cancelled", reason, s)``. Failures come back as values; only the worker's death is an
+    error to Dask."""
+    worker = get_worker()
+    worker.log_event(TOPIC, ["started", key, worker.address])
+    # Counting from the start: a short job sends no progress at all.
+    last = time.monotonic()
+
+    def progress(percent: int, message: str) -> None:
+        nonlocal last
+        now = time.monotonic()
+        if now - last >= PROGRESS_INTERVAL:
+            last = now
+            worker.log_event(TOPIC, ["progress", key, int(percent), str(message)])
+
+    stop = _StopFlag(key, poll)
+    t0 = time.perf_counter()
+    reply: tuple[Any, ...]
+    try:
+        data, meta = resolve_runner(runner)(payload, progress, stop)
+        reply = ("done", data, meta)
+    except Exception as exc:
+        if stop.seen or stop.ask():
+            reply = ("cancelled", "stopped on request")
+        elif isinstance(exc, TaskError):
+            reply = ("error", str(exc))
+        else:
+            reply = ("error", f"internal error: {type(exc).__name__}: {exc}")
+    if stop.seen:
+        stop.forget()
+    return (*reply, time.perf_counter() - t0)
+
+
+class Warmup(WorkerPlugin):
+    """Loads the runners and the engine's compiled kernels on every worker as it joins, so the
+    first job does not pay for it (in a thread: the worker keeps answering meanwhile)."""
+
+    idempotent = True
+
+    async def setup(self, worker: distributed.Worker) -> None:
+        await asyncio.to_thread(_warm)
+
+
+def _warm() -> None:
+    import engine
+
+    from . import runners  # noqa: F401
+
+    engine.warmup()
