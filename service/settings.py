@@ -31,6 +31,13 @@ class Settings(BaseSettings):
 
     data_dir: Path = Field(Path("evomesh-data"), description="folder of the SQLite job store")
     workers: int = Field(default_factory=_cpu_count, ge=1, le=256, description="worker processes")
+    worker_nice: int = Field(
+        5,
+        ge=0,
+        le=19,
+        description="how much lower the local workers' CPU priority is than the service's, so"
+        " status requests stay fast while every core meshes (0: the same)",
+    )
     backend: Literal["local", "dask"] = Field("local", description="compute backend")
     scheduler: str | None = Field(
         None, description="Dask scheduler address (backend dask); none: a local Dask cluster"

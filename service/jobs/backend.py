@@ -131,7 +131,9 @@ def resolve_runner(name: str) -> Runner:
 def _local(settings: Settings) -> ComputeBackend:
     from .local import LocalBackend
 
-    return LocalBackend(workers=settings.workers, cancel_grace=settings.cancel_grace)
+    return LocalBackend(
+        workers=settings.workers, cancel_grace=settings.cancel_grace, nice=settings.worker_nice
+    )
 
 
 def _dask(settings: Settings) -> ComputeBackend:

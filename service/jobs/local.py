@@ -53,10 +53,14 @@ def _context() -> Any:
     return multiprocessing.get_context("spawn")
 
 
-def _worker_main(conn: Connection, stop: Any, warmup: bool) -> None:
+def _worker_main(conn: Connection, stop: Any, warmup: bool, nice: int = 0) -> None:
     """A worker: run tasks from ``conn`` until told to stop or the pipe closes."""
     # Ctrl-C in a terminal reaches the whole process group; the supervisor decides when we stop.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if nice > 0:
+        # Below the service's priority: status requests keep their latency while every core
+        # meshes, and the workers still get every cycle the service leaves idle.
+        os.nice(nice)
     if warmup:
         import engine
 
@@ -193,17 +197,28 @@ class _Watcher:
 class LocalBackend:
     """A :class:`~service.jobs.backend.ComputeBackend` of local worker processes.
 
-    ``warmup`` makes each new worker compile/load the engine's kernels before its first task.
+    ``warmup`` makes each new worker compile/load the engine's kernels before its first task;
+    ``nice`` lowers the workers' scheduling priority by that much (0: the service's priority).
     """
 
     name = "local"
 
-    def __init__(self, workers: int = 1, *, cancel_grace: float = 10.0, warmup: bool = True):
+    def __init__(
+        self,
+        workers: int = 1,
+        *,
+        cancel_grace: float = 10.0,
+        warmup: bool = True,
+        nice: int = 0,
+    ):
         if workers < 1:
             raise ValueError("workers must be at least 1")
+        if not 0 <= nice <= 19:
+            raise ValueError("nice must be between 0 and 19")
         self.workers = workers
         self.cancel_grace = cancel_grace
         self.warmup = warmup
+        self.nice = nice
         self._ctx = _context()
         self._pool: list[_Worker] = []
         self._queue: deque[Task] = deque()
@@ -229,7 +244,7 @@ class LocalBackend:
             parent, child = self._ctx.Pipe()
             stop = self._ctx.RawValue("q", 0)
             process = self._ctx.Process(
-                target=_worker_main, args=(child, stop, self.warmup), daemon=True
+                target=_worker_main, args=(child, stop, self.warmup, self.nice), daemon=True
             )
             # Starting can wait on the forkserver (seconds the first time): not on the loop.
             await asyncio.to_thread(process.start)

@@ -6,6 +6,7 @@ cancellations are reported as such, and the backend keeps working after each.
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import AsyncIterator, Callable
 from pathlib import Path
@@ -222,3 +223,26 @@ async def test_close_stops_workers_without_reporting(running: Any, tmp_path: Pat
     assert time.monotonic() - t0 < 10
     assert not backend.alive()
     assert "inflight" not in events.outcomes
+
+
+@pytest.mark.parametrize("nice", [0, 7])
+async def test_local_workers_run_below_the_service_priority(nice: int) -> None:
+    backend = LocalBackend(workers=2, warmup=False, nice=nice)
+    await backend.start(Recorder())
+    try:
+        own = os.getpriority(os.PRIO_PROCESS, 0)
+        pids = backend.worker_pids()
+        assert len(pids) == 2
+        want = [min(own + nice, 19)] * 2
+        deadline = time.monotonic() + 30
+        # A worker lowers its own priority first thing: wait until both have run that far.
+        while (seen := [os.getpriority(os.PRIO_PROCESS, pid) for pid in pids]) != want:
+            assert time.monotonic() < deadline, f"worker priorities {seen}, expected {want}"
+            await anyio.sleep(0.01)
+    finally:
+        await backend.close()
+
+
+def test_local_backend_refuses_a_bad_nice() -> None:
+    with pytest.raises(ValueError, match="nice"):
+        LocalBackend(nice=20)
