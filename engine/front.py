@@ -10,9 +10,14 @@ processed by the classic rules:
 - otherwise: a new point at the ideal apex of the shorter adjacent edge.
 
 Before a new point is made, existing front vertices near it are tried as the apex, so fronts
-merge instead of leaving slivers. Every triangle is checked against the front: its corners must lie
-inside the front's wedges, its new edges may not cross or touch a front edge, no front vertex may
-lie in it, and a new point must keep its distance from the front. A uniform grid of front edges
+merge instead of leaving slivers. When another front lies less than ``GAP_LAYERS`` rows ahead
+(a ray from the edge along the new point's direction meets it), the new point goes to an even
+fraction of that gap, so the rows left between two approaching fronts are spaced evenly instead
+of the last one being squeezed (narrow channels, fronts colliding).
+
+Every triangle is checked against the front: its corners must lie inside the front's wedges,
+its new edges may not cross or touch a front edge, no front vertex may lie in it, and a new
+point must keep its distance from the front. A uniform grid of front edges
 makes each check local, so the cost is O(n) overall for bounded size gradation.
 
 When no slot can advance under the normal rules, the rules are relaxed once; if the front is still
@@ -68,6 +73,9 @@ MERGE_RADIUS = 0.7
 #: A new point is preferred over an existing apex only when its triangle is this much better.
 NEW_POINT_MARGIN = 0.2
 Q_MIN = 0.4
+#: Another front closer than this many rows ahead spaces the remaining rows evenly.
+GAP_LAYERS = 3.0
+GAP_MIN_ROWS = 2
 Q_MIN_RELAXED = 0.02
 
 
@@ -597,10 +605,59 @@ def _try_apex(
 
 
 @nb.njit(cache=True)
+def _gap_ahead(
+    slots: IntArray, pts: FloatArray, ghead: IntArray, gent: IntArray, st: IntArray,
+    stamp: IntArray, gp: FloatArray, nx: int, ny: int, e: int, e2: int, mx: float, my: float,
+    dx: float, dy: float, reach: float,
+) -> float:  # fmt: skip
+    """Distance from (mx, my) along the unit direction (dx, dy) to the first front edge other
+    than those of slots ``e`` and ``e2``, or ``reach`` when none is that close."""
+    ex, ey = mx + dx * reach, my + dy * reach
+    i0 = min(max(int((min(mx, ex) - gp[0]) / gp[2]), 0), nx - 1)
+    i1 = min(max(int((max(mx, ex) - gp[0]) / gp[2]), 0), nx - 1)
+    j0 = min(max(int((min(my, ey) - gp[1]) / gp[2]), 0), ny - 1)
+    j1 = min(max(int((max(my, ey) - gp[1]) / gp[2]), 0), ny - 1)
+    st[QUERY] += 1
+    q = st[QUERY]
+    best = reach
+    for j in range(j0, j1 + 1):
+        for i in range(i0, i1 + 1):
+            g = ghead[j * nx + i]
+            while g >= 0:
+                f = gent[g, 0]
+                live = slots[f, ALIVE] == 1 and slots[f, VER] == gent[g, 1]
+                g = gent[g, 2]
+                if not live or stamp[f] == q:
+                    continue
+                stamp[f] = q
+                if f in (e, e2):
+                    continue
+                a, b = slots[f, VERT], slots[slots[f, NEXT], VERT]
+                sx, sy = pts[b, 0] - pts[a, 0], pts[b, 1] - pts[a, 1]
+                denom = dx * sy - dy * sx
+                if abs(denom) <= 1e-12 * math.hypot(sx, sy):
+                    continue
+                wx, wy = pts[a, 0] - mx, pts[a, 1] - my
+                t = (wx * sy - wy * sx) / denom
+                r = (wx * dy - wy * dx) / denom
+                if 0.0 <= r <= 1.0 and 1e-9 * reach < t < best:
+                    best = t
+    return best
+
+
+@nb.njit(cache=True)
 def _ideal_apex(
-    slots: IntArray, pts: FloatArray, hv: FloatArray, sf: SizeTuple, e: int, scale: float
-) -> tuple[float, float, float]:
-    """Apex of a near-equilateral triangle on the edge of slot ``e`` for the local size."""
+    slots: IntArray, pts: FloatArray, hv: FloatArray, ghead: IntArray, gent: IntArray,
+    st: IntArray, stamp: IntArray, gp: FloatArray, nx: int, ny: int, sf: SizeTuple, e: int,
+    scale: float,
+) -> tuple[float, float, float]:  # fmt: skip
+    """Apex of a near-equilateral triangle on the edge of slot ``e`` for the local size.
+
+    When another front lies ahead closer than ``GAP_LAYERS`` rows, the rows left between them
+    are spaced evenly: the apex goes to ``gap / round(gap / height)``, so two fronts meeting
+    across a gap that is not a whole number of rows close with evenly stretched triangles
+    instead of a last row of slivers.
+    """
     u, v = slots[e, VERT], slots[slots[e, NEXT], VERT]
     ux, uy, vx, vy = pts[u, 0], pts[u, 1], pts[v, 0], pts[v, 1]
     length = math.hypot(vx - ux, vy - uy)
@@ -609,7 +666,16 @@ def _ideal_apex(
     h = 0.5 * (hv[u] + hv[v])
     h_far = _size(sf, mx + nx_ * 0.866 * h, my + ny_ * 0.866 * h)
     delta = min(max(0.5 * (h + h_far), 0.55 * length), 1.6 * length)
-    height = scale * math.sqrt(max(delta * delta - 0.25 * length * length, 0.09 * length * length))
+    height = math.sqrt(max(delta * delta - 0.25 * length * length, 0.09 * length * length))
+    if GAP_LAYERS > 0.0:
+        reach = GAP_LAYERS * height
+        gap = _gap_ahead(
+            slots, pts, ghead, gent, st, stamp, gp, nx, ny, e, e, mx, my, nx_, ny_, reach
+        )
+        rows = math.floor(gap / height + 0.5)
+        if gap < reach and rows >= GAP_MIN_ROWS:
+            height = gap / rows
+    height *= scale
     return mx + nx_ * height, my + ny_ * height, delta
 
 
@@ -644,6 +710,15 @@ def _process(
         d = 0.5 * (h0 + _size(sf, bx + bis_x * h0, by + bis_y * h0))
         lavg = 0.5 * (la + lc)
         d = min(max(d, 0.7 * lavg), 1.4 * lavg)
+        if GAP_LAYERS > 0.0:
+            # Another front close ahead: space the rows left before it evenly.
+            reach = GAP_LAYERS * d
+            gap = _gap_ahead(
+                slots, pts, ghead, gent, st, stamp, gp, nx, ny, ps, s, bx, by, bis_x, bis_y, reach
+            )
+            rows = math.floor(gap / d + 0.5)
+            if gap < reach and rows >= GAP_MIN_ROWS:
+                d = gap / rows
         r = _try_apex(*args, ps, bx + bis_x * d, by + bis_y * d, d, q_min, True)
         if r != 0:
             return r
@@ -655,7 +730,9 @@ def _process(
     for i in range(3 if relaxed else 1):
         for attempt in range(2):
             e = s if (lc <= la) == (attempt == 0) else ps
-            px, py, d = _ideal_apex(slots, pts, hv, sf, e, scales[i])
+            px, py, d = _ideal_apex(
+                slots, pts, hv, ghead, gent, st, stamp, gp, nx, ny, sf, e, scales[i]
+            )
             r = _try_apex(*args, e, px, py, d, q_min, True)
             if r != 0:
                 return r

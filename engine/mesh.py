@@ -160,8 +160,12 @@ def validate_mesh(points: ArrayLike, triangles: ArrayLike, *, area_tol: float = 
     if rep.size:
         raise InvalidMesh(f"triangle {rep[0]} repeats a vertex", triangle=int(rep[0]))
     areas = triangle_areas(pts, tri)
-    scale = float(np.ptp(pts, axis=0).max()) or 1.0
-    flat = np.flatnonzero(areas <= max(area_tol, 1e-14 * scale * scale))
+    # Degenerate relative to the triangle's own size: the sign of a small triangle's area is
+    # exact to about eps * (its longest side)^2, whatever the mesh's extent, so a graded mesh
+    # may hold triangles far smaller than its extent.
+    p = pts[tri]
+    longest2 = np.max(np.sum((p - np.roll(p, 1, axis=1)) ** 2, axis=2), axis=1)
+    flat = np.flatnonzero((areas <= area_tol) | (areas <= 1e-12 * longest2))
     if flat.size:
         t = int(flat[0])
         raise InvalidMesh(
