@@ -70,7 +70,10 @@ def regions(draw: st.DrawFn) -> tuple[Rings, float]:
     if draw(st.booleans()):
         outer = draw(star_polygons())
         shell = Polygon(outer)
-        if not shell.is_valid or shell.area < 1e-3:
+        # Features finer than 1/1000 of the extent (a spike 1e-5 wide) are meshed correctly but
+        # slowly by the uniform search grid (see README, Meshing): they have their own
+        # regression tests, and would make this test's run time a lottery.
+        if not shell.is_valid or shell.area < 1e-3 or shapely.minimum_clearance(shell) < 1e-3:
             outer = [[0, 0], [1, 0], [0.5, 0.8]]
             shell = Polygon(outer)
     else:
