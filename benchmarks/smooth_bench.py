@@ -30,7 +30,6 @@ import numpy as np
 import engine
 from engine.mesh import Mesh
 from engine.quality import triangle_quality
-from engine.swap import swap_diagonals
 from service.geojson import parse_region
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -74,12 +73,16 @@ def smooth(mesh: Mesh, method: str, swap: bool) -> tuple[Mesh, float, float]:
     """Smooth with the default (paper) parameters; returns mesh, seconds, node-GAs per second."""
     params = engine.SmoothingParams(method=method)
     t0 = time.perf_counter()
-    base = swap_diagonals(mesh, relax=method != "none") if swap else mesh  # as the pipeline
-    out = engine.smoothing.smooth_points(base, params, np.random.default_rng(0), _quiet, _never)
+    if swap:  # exactly what `evomesh smooth` runs: settle, swap, valence flips, smoother
+        result = engine.smooth_mesh(mesh, params, swap=True, rng=np.random.default_rng(0))
+        smoothed, history = result.smoothed.mesh, result.history
+    else:
+        out = engine.smoothing.smooth_points(mesh, params, np.random.default_rng(0), _quiet, _never)
+        smoothed, history = mesh.with_points(out.points), out.history
     seconds = time.perf_counter() - t0
-    evolved = sum(h.nodes_evolved for h in out.history) if method == "ga" else 0
-    ga_seconds = sum(h.seconds for h in out.history)
-    return base.with_points(out.points), seconds, evolved / ga_seconds if evolved else 0.0
+    evolved = sum(h.nodes_evolved for h in history) if method == "ga" else 0
+    ga_seconds = sum(h.seconds for h in history)
+    return smoothed, seconds, evolved / ga_seconds if evolved else 0.0
 
 
 def throughput() -> float:

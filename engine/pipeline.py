@@ -7,6 +7,7 @@ from dataclasses import asdict
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from .boundary import Region
 from .discretize import discretize
@@ -15,12 +16,12 @@ from .fitness import node_fitness
 from .front import advance_front
 from .mesh import Mesh
 from .params import PipelineParams, SizingParams, SmoothingParams
-from .quality import summarize, triangle_quality
+from .quality import shape_quality, summarize, triangle_quality
 from .relax import relax
 from .result import ProgressFn, Result, Snapshot, StopFn
 from .sizing import build_size_field, estimate_triangles
 from .smoothing import SMOOTHERS, smooth_points
-from .swap import swap_diagonals
+from .swap import regularise_valence, swap_diagonals
 
 __all__ = ["assess_mesh", "mesh_region", "mesh_then_smooth", "smooth_mesh", "warmup"]
 
@@ -88,6 +89,10 @@ def mesh_region(
     return mesh, {"boundary": t1 - t0, "mesh": t2 - t1}
 
 
+def _worst(points: NDArray[np.float64], triangles: NDArray[np.int64]) -> float:
+    return float(shape_quality(points, triangles).min())
+
+
 def _check_method(smoothing: SmoothingParams) -> None:
     if smoothing.method not in SMOOTHERS:
         raise ValueError(
@@ -121,7 +126,22 @@ def _improve(
     if should_stop():
         raise Cancelled("stopped before smoothing")
     progress("smooth", 0.0)
-    outcome = smooth_points(swapped_mesh, smoothing, rng, progress, should_stop)
+    regular = regularise_valence(swapped_mesh) if swap and relax else None
+    if regular is None:
+        outcome = smooth_points(swapped_mesh, smoothing, rng, progress, should_stop)
+    else:
+        # Valence flips may pass through a worse triangle for the smoother to lift. Keep them
+        # when the smoothed worst is no worse than the swapped mesh's; otherwise smooth the
+        # swapped mesh as it was and keep the better of the two.
+        outcome = smooth_points(regular, smoothing, rng, progress, should_stop)
+        worst = _worst(outcome.points, regular.triangles)
+        if worst < _worst(swapped_mesh.points, swapped_mesh.triangles):
+            plain = smooth_points(swapped_mesh, smoothing, rng, progress, should_stop)
+            if _worst(plain.points, swapped_mesh.triangles) > worst:
+                outcome, regular = plain, None
+        if regular is not None:
+            swapped_mesh = regular
+            second = assess_mesh(regular, smoothing)
     progress("smooth", 1.0)
     timings["smooth"] = time.perf_counter() - t
     unmoved = np.array_equal(outcome.points, swapped_mesh.points)

@@ -8,12 +8,15 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from engine import PipelineParams, SizingParams, SmoothingParams, mesh_then_smooth
+from engine.errors import InvalidBoundary
 from engine.mesh import Mesh, edge_table, validate_mesh
 from engine.quality import shape_quality
-from engine.swap import swap_diagonals
+from engine.swap import regularise_valence, swap_diagonals
 
 from ..conftest import DATA
 from .random_meshes import meshes, random_mesh
+from .regions import Rings, region_of, regions
 
 
 def _undirected(edges: np.ndarray) -> set[tuple[int, int]]:
@@ -105,3 +108,48 @@ def test_swapping_does_not_modify_its_input() -> None:
     before = mesh.triangles.copy()
     swap_diagonals(mesh)
     np.testing.assert_array_equal(mesh.triangles, before)
+
+
+def _irregularity(mesh: Mesh) -> int:
+    valence = np.bincount(mesh.triangles.ravel(), minlength=len(mesh.points))
+    interior = np.ones(len(mesh.points), dtype=bool)
+    interior[mesh.boundary_nodes] = False
+    return int(((valence[interior] - 6) ** 2).sum())
+
+
+@settings(max_examples=25, deadline=None)
+@given(mesh=meshes())
+def test_valence_flips_lower_irregularity_and_keep_the_mesh_valid(mesh: Mesh) -> None:
+    swapped = swap_diagonals(mesh, relax=True)
+    out = regularise_valence(swapped)
+    if out is None:
+        return
+    validate_mesh(out.points, out.triangles)
+    assert _irregularity(out) < _irregularity(swapped)
+    boundary = swapped.boundary_nodes
+    np.testing.assert_array_equal(out.points[boundary], swapped.points[boundary])
+    assert _undirected(out.boundary_edges) == _undirected(swapped.boundary_edges)
+    assert np.isclose(out.areas.sum(), swapped.areas.sum(), rtol=1e-12)
+    assert shape_quality(out.points, out.triangles).min() >= 0.5 - 1e-12 or (
+        shape_quality(out.points, out.triangles).min()
+        >= shape_quality(swapped.points, swapped.triangles).min() - 1e-12
+    )
+
+
+@settings(max_examples=15, deadline=None)
+@given(regions())
+def test_the_pipeline_never_ends_below_its_starting_worst(case: tuple[Rings, float]) -> None:
+    rings, size = case
+    try:
+        region = region_of(rings)
+    except InvalidBoundary:
+        return
+    quick = SmoothingParams(population=12, generations=6, max_sweeps=3)
+    result = mesh_then_smooth(
+        region,
+        PipelineParams(SizingParams(size=size), smoothing=quick),
+        rng=np.random.default_rng(1),
+    )
+    final = result.smoothed.mesh
+    validate_mesh(final.points, final.triangles)
+    assert result.smoothed.quality.quality.min() >= result.initial.quality.quality.min() - 1e-12
