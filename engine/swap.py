@@ -53,6 +53,33 @@ def _quality(p: FloatArray, i: int, j: int, k: int) -> float:
     return _FOUR_SQRT3 * area / max(s, 1e-300)
 
 
+@numba.njit(cache=True, inline="always")
+def _flip(
+    tri: IntArray, nbr: IntArray, locked: BoolArray, t1: int, k1: int, t2: int, k2: int
+) -> None:
+    """Flip the edge between triangle ``t1`` (side ``k1``) and ``t2`` (side ``k2``) in place.
+
+    With t1 = (c, a, b) and t2's corner d opposite the edge, t1 becomes (c, a, d) and t2
+    becomes (d, b, c); side k is opposite corner k, and the outer neighbours follow.
+    """
+    c, a, b, d = tri[t1, k1], tri[t1, (k1 + 1) % 3], tri[t1, (k1 + 2) % 3], tri[t2, k2]
+    n_bc, n_ca = nbr[t1, (k1 + 1) % 3], nbr[t1, (k1 + 2) % 3]
+    n_ad, n_db = nbr[t2, (k2 + 1) % 3], nbr[t2, (k2 + 2) % 3]
+    l_bc, l_ca = locked[t1, (k1 + 1) % 3], locked[t1, (k1 + 2) % 3]
+    l_ad, l_db = locked[t2, (k2 + 1) % 3], locked[t2, (k2 + 2) % 3]
+    tri[t1, 0], tri[t1, 1], tri[t1, 2] = c, a, d
+    nbr[t1, 0], nbr[t1, 1], nbr[t1, 2] = n_ad, t2, n_ca
+    locked[t1, 0], locked[t1, 1], locked[t1, 2] = l_ad, False, l_ca
+    tri[t2, 0], tri[t2, 1], tri[t2, 2] = d, b, c
+    nbr[t2, 0], nbr[t2, 1], nbr[t2, 2] = n_bc, t1, n_db
+    locked[t2, 0], locked[t2, 1], locked[t2, 2] = l_bc, False, l_db
+    for t_out, t_new in ((n_ad, t1), (n_bc, t2)):
+        if t_out >= 0:
+            for k in range(3):
+                if nbr[t_out, k] == (t2 if t_new == t1 else t1):
+                    nbr[t_out, k] = t_new
+
+
 @numba.njit(cache=True)
 def _flip_all(
     points: FloatArray, tri: IntArray, nbr: IntArray, locked: BoolArray, order: IntArray
@@ -91,22 +118,7 @@ def _flip_all(
         # Both new triangles positive <=> the quadrilateral a-d-b-c is strictly convex.
         if not (new > 0.0 and new > old + _MARGIN * abs(old)):
             continue
-        n_bc, n_ca = nbr[t1, (k1 + 1) % 3], nbr[t1, (k1 + 2) % 3]
-        n_ad, n_db = nbr[t2, (k2 + 1) % 3], nbr[t2, (k2 + 2) % 3]
-        l_bc, l_ca = locked[t1, (k1 + 1) % 3], locked[t1, (k1 + 2) % 3]
-        l_ad, l_db = locked[t2, (k2 + 1) % 3], locked[t2, (k2 + 2) % 3]
-        # t1 becomes (c, a, d) and t2 becomes (d, b, c); side k is opposite corner k.
-        tri[t1, 0], tri[t1, 1], tri[t1, 2] = c, a, d
-        nbr[t1, 0], nbr[t1, 1], nbr[t1, 2] = n_ad, t2, n_ca
-        locked[t1, 0], locked[t1, 1], locked[t1, 2] = l_ad, False, l_ca
-        tri[t2, 0], tri[t2, 1], tri[t2, 2] = d, b, c
-        nbr[t2, 0], nbr[t2, 1], nbr[t2, 2] = n_bc, t1, n_db
-        locked[t2, 0], locked[t2, 1], locked[t2, 2] = l_bc, False, l_db
-        for t_out, t_new in ((n_ad, t1), (n_bc, t2)):
-            if t_out >= 0:
-                for k in range(3):
-                    if nbr[t_out, k] == (t2 if t_new == t1 else t1):
-                        nbr[t_out, k] = t_new
+        _flip(tri, nbr, locked, t1, k1, t2, k2)
         flips += 1
         for key2 in (3 * t1, 3 * t1 + 2, 3 * t2, 3 * t2 + 2):
             if not queued[key2]:
@@ -160,21 +172,7 @@ def _flip_valence(
                 new = min(_quality(points, c, a, d), _quality(points, d, b, c))
                 if not (new >= _VALENCE_Q_FLOOR and new >= _VALENCE_Q_RATIO * old):
                     continue
-                n_bc, n_ca = nbr[t1, (k1 + 1) % 3], nbr[t1, (k1 + 2) % 3]
-                n_ad, n_db = nbr[t2, (k2 + 1) % 3], nbr[t2, (k2 + 2) % 3]
-                l_bc, l_ca = locked[t1, (k1 + 1) % 3], locked[t1, (k1 + 2) % 3]
-                l_ad, l_db = locked[t2, (k2 + 1) % 3], locked[t2, (k2 + 2) % 3]
-                tri[t1, 0], tri[t1, 1], tri[t1, 2] = c, a, d
-                nbr[t1, 0], nbr[t1, 1], nbr[t1, 2] = n_ad, t2, n_ca
-                locked[t1, 0], locked[t1, 1], locked[t1, 2] = l_ad, False, l_ca
-                tri[t2, 0], tri[t2, 1], tri[t2, 2] = d, b, c
-                nbr[t2, 0], nbr[t2, 1], nbr[t2, 2] = n_bc, t1, n_db
-                locked[t2, 0], locked[t2, 1], locked[t2, 2] = l_bc, False, l_db
-                for t_out, t_new in ((n_ad, t1), (n_bc, t2)):
-                    if t_out >= 0:
-                        for k in range(3):
-                            if nbr[t_out, k] == (t2 if t_new == t1 else t1):
-                                nbr[t_out, k] = t_new
+                _flip(tri, nbr, locked, t1, k1, t2, k2)
                 val[a] -= 1
                 val[b] -= 1
                 val[c] += 1
