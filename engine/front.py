@@ -159,6 +159,18 @@ def _segments_meet(
 # Grid of front edges (lazy deletion: an entry is live while its slot is alive at that version).
 
 
+@nb.njit(cache=True, inline="always")
+def _cells(
+    gp: FloatArray, nx: int, ny: int, x0: float, y0: float, x1: float, y1: float
+) -> tuple[int, int, int, int]:
+    """Grid cell index ranges (i0, i1, j0, j1), clamped to the grid, covering a box."""
+    i0 = min(max(int((x0 - gp[0]) / gp[2]), 0), nx - 1)
+    i1 = min(max(int((x1 - gp[0]) / gp[2]), 0), nx - 1)
+    j0 = min(max(int((y0 - gp[1]) / gp[2]), 0), ny - 1)
+    j1 = min(max(int((y1 - gp[1]) / gp[2]), 0), ny - 1)
+    return i0, i1, j0, j1
+
+
 @nb.njit(cache=True)
 def _grid_insert(
     slots: IntArray, pts: FloatArray, ghead: IntArray, gent: IntArray, st: IntArray,
@@ -167,10 +179,7 @@ def _grid_insert(
     a, b = slots[s, VERT], slots[slots[s, NEXT], VERT]
     x0, x1 = min(pts[a, 0], pts[b, 0]), max(pts[a, 0], pts[b, 0])
     y0, y1 = min(pts[a, 1], pts[b, 1]), max(pts[a, 1], pts[b, 1])
-    i0 = min(max(int((x0 - gp[0]) / gp[2]), 0), nx - 1)
-    i1 = min(max(int((x1 - gp[0]) / gp[2]), 0), nx - 1)
-    j0 = min(max(int((y0 - gp[1]) / gp[2]), 0), ny - 1)
-    j1 = min(max(int((y1 - gp[1]) / gp[2]), 0), ny - 1)
+    i0, i1, j0, j1 = _cells(gp, nx, ny, x0, y0, x1, y1)
     need = (i1 - i0 + 1) * (j1 - j0 + 1)
     if st[NE] + need > gent.shape[0]:
         return False
@@ -338,10 +347,7 @@ def _front_clear(
     x1 = max(ux, vx, wx) + margin
     y0 = min(uy, vy, wy) - margin
     y1 = max(uy, vy, wy) + margin
-    i0 = min(max(int((x0 - gp[0]) / gp[2]), 0), nx - 1)
-    i1 = min(max(int((x1 - gp[0]) / gp[2]), 0), nx - 1)
-    j0 = min(max(int((y0 - gp[1]) / gp[2]), 0), ny - 1)
-    j1 = min(max(int((y1 - gp[1]) / gp[2]), 0), ny - 1)
+    i0, i1, j0, j1 = _cells(gp, nx, ny, x0, y0, x1, y1)
     st[QUERY] += 1
     q = st[QUERY]
     new_uw = w != pu  # edge u-w is new (not already the front edge w -> u)
@@ -391,10 +397,7 @@ def _candidates_near(
     out: IntArray,
 ) -> int:  # fmt: skip
     """Front slots whose vertex lies within ``r`` of (px, py); returns how many were written."""
-    i0 = min(max(int((px - r - gp[0]) / gp[2]), 0), nx - 1)
-    i1 = min(max(int((px + r - gp[0]) / gp[2]), 0), nx - 1)
-    j0 = min(max(int((py - r - gp[1]) / gp[2]), 0), ny - 1)
-    j1 = min(max(int((py + r - gp[1]) / gp[2]), 0), ny - 1)
+    i0, i1, j0, j1 = _cells(gp, nx, ny, px - r, py - r, px + r, py + r)
     st[QUERY] += 1
     q = st[QUERY]
     n = 0
@@ -613,10 +616,7 @@ def _gap_ahead(
     """Distance from (mx, my) along the unit direction (dx, dy) to the first front edge other
     than those of slots ``e`` and ``e2``, or ``reach`` when none is that close."""
     ex, ey = mx + dx * reach, my + dy * reach
-    i0 = min(max(int((min(mx, ex) - gp[0]) / gp[2]), 0), nx - 1)
-    i1 = min(max(int((max(mx, ex) - gp[0]) / gp[2]), 0), nx - 1)
-    j0 = min(max(int((min(my, ey) - gp[1]) / gp[2]), 0), ny - 1)
-    j1 = min(max(int((max(my, ey) - gp[1]) / gp[2]), 0), ny - 1)
+    i0, i1, j0, j1 = _cells(gp, nx, ny, min(mx, ex), min(my, ey), max(mx, ex), max(my, ey))
     st[QUERY] += 1
     q = st[QUERY]
     best = reach
