@@ -135,7 +135,7 @@ def _improve(
         # swapped mesh as it was and keep the better of the two.
         outcome = smooth_points(regular, smoothing, rng, progress, should_stop)
         worst = _worst(outcome.points, regular.triangles)
-        if worst < _worst(swapped_mesh.points, swapped_mesh.triangles):
+        if worst < float(second.quality.quality.min()):  # the swapped mesh's, assessed above
             plain = smooth_points(swapped_mesh, smoothing, rng, progress, should_stop)
             if _worst(plain.points, swapped_mesh.triangles) > worst:
                 outcome, regular = plain, None
