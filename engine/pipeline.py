@@ -10,6 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .boundary import Region
+from .collapse import collapse_edges
 from .discretize import discretize
 from .errors import Cancelled, LimitExceeded
 from .fitness import node_fitness
@@ -68,8 +69,10 @@ def mesh_region(
     """Mesh ``region`` (no swapping, no smoothing); returns the mesh and stage timings.
 
     The mesher is the advancing front followed by ``relax_sweeps`` sweeps of constrained
-    relaxation (0 gives the raw front). Raises :class:`LimitExceeded` when the estimated (or,
-    while meshing, the actual) triangle count is over ``max_triangles``.
+    relaxation, edge collapses where fronts left a node too many
+    (:func:`engine.collapse.collapse_edges`) and relaxation again (0 gives the raw front).
+    Raises :class:`LimitExceeded` when the estimated (or, while meshing, the actual) triangle
+    count is over ``max_triangles``.
     """
     t0 = time.perf_counter()
     field = build_size_field(region, sizing)
@@ -85,6 +88,8 @@ def mesh_region(
     t1 = time.perf_counter()
     front = advance_front(boundary, field, should_stop, max_triangles=max_triangles)
     mesh = relax(front, relax_sweeps)
+    if relax_sweeps > 0:  # 0 asks for the raw front
+        mesh = relax(collapse_edges(mesh), relax_sweeps)
     t2 = time.perf_counter()
     return mesh, {"boundary": t1 - t0, "mesh": t2 - t1}
 
