@@ -29,8 +29,9 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
+from .fitness import star_min
 from .mesh import Mesh, edge_table
-from .quality import shape_quality
+from .quality import shape_quality, shape_quality_xy
 from .relax import node_stars
 
 __all__ = ["collapse_edges"]
@@ -48,14 +49,6 @@ _COMPASS_ITERATIONS = 10
 #: Edges whose best start (an end or the midpoint) is this far below the worst quality around
 #: them now are not searched further: the compass search never gained that much where measured.
 _HOPELESS = 0.3
-
-
-@nb.njit(cache=True, inline="always")
-def _q(ax: float, ay: float, bx: float, by: float, cx: float, cy: float) -> float:
-    area2 = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
-    s = (bx - ax) ** 2 + (by - ay) ** 2 + (cx - bx) ** 2 + (cy - by) ** 2 + (ax - cx) ** 2
-    s += (ay - cy) ** 2
-    return 2.0 * math.sqrt(3.0) * area2 / max(s, 1e-300)
 
 
 @nb.njit(cache=True)
@@ -82,7 +75,7 @@ def _merged_worst(
             ix, iy = (x, y) if i == v else (p[i, 0], p[i, 1])
             jx, jy = (x, y) if j == v else (p[j, 0], p[j, 1])
             mx, my = (x, y) if m == v else (p[m, 0], p[m, 1])
-            worst = min(worst, _q(ix, iy, jx, jy, mx, my))
+            worst = min(worst, shape_quality_xy(ix, iy, jx, jy, mx, my))
     return worst
 
 
@@ -115,23 +108,22 @@ def _evaluate(
     fixed: BoolArray,
     start: IntArray,
     tri_of: IntArray,
-    edges: IntArray,
-    candidates: IntArray,
+    ends: IntArray,
     tq: FloatArray,
 ) -> tuple[FloatArray, FloatArray, FloatArray]:  # pragma: no cover - compiled
-    """Per candidate edge: worst quality around it now, after its best collapse, and where.
+    """Per candidate edge ``(kept, gone)``: worst quality around it now, after its best
+    collapse, and where the merged node goes.
 
-    The merged node is the boundary node if there is one, else the best of the edge's ends and
-    midpoint refined by a compass search; -inf marks an edge that cannot collapse.
+    A boundary node is always the kept one and stays put; otherwise the merged node goes to the
+    best of the edge's ends and midpoint, refined by a compass search. -inf marks an edge that
+    cannot collapse.
     """
-    c = len(candidates)
+    c = len(ends)
     before = np.full(c, np.inf)
     after = np.full(c, -np.inf)
     pos = np.zeros((c, 2))
     for i in range(c):
-        a, b = edges[candidates[i], 0], edges[candidates[i], 1]
-        if fixed[b]:
-            a, b = b, a  # the boundary node stays
+        a, b = ends[i, 0], ends[i, 1]
         for v in (a, b):
             for k in range(start[v], start[v + 1]):
                 before[i] = min(before[i], tq[tri_of[k]])
@@ -229,8 +221,7 @@ def collapse_edges(mesh: Mesh, rounds: int = ROUNDS) -> Mesh:
     for _ in range(rounds):
         sub = tri[rows]
         tq = shape_quality(points, sub)
-        star_worst = np.full(n, np.inf)
-        np.minimum.at(star_worst, sub.ravel(), np.repeat(tq, 3))
+        star_worst = star_min(Mesh(points, sub), tq)
         edges, count, _ = edge_table(sub)
         # Only nodes whose whole star is in ``sub`` can be judged.
         whole = np.bincount(sub.ravel(), minlength=n) == valence
@@ -249,13 +240,13 @@ def collapse_edges(mesh: Mesh, rounds: int = ROUNDS) -> Mesh:
         if idx.size == 0:
             break
         start, tri_of = node_stars(sub, n)
-        before, after, pos = _evaluate(points, sub, fixed, start, tri_of, edges, idx, tq)
+        ends = edges[idx]
+        ends = np.where(fixed[ends[:, 1]][:, None], ends[:, ::-1], ends)  # [kept, gone]
+        before, after, pos = _evaluate(points, sub, fixed, start, tri_of, ends, tq)
         good = np.flatnonzero(after > before + GAIN)
         if good.size == 0:
             break
         # Best outcome first; collapses whose neighbourhoods overlap a chosen one wait a round.
-        ends = edges[idx]
-        ends = np.where(fixed[ends[:, 1]][:, None], ends[:, ::-1], ends)  # [kept, gone]
         order = good[np.argsort(-after[good], kind="stable")]
         chosen = _select(sub, start, tri_of, ends, order, n)
         kept, gone = ends[chosen, 0], ends[chosen, 1]

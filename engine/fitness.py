@@ -40,6 +40,7 @@ __all__ = [
     "REFERENCE",
     "fitness_code",
     "node_fitness",
+    "star_min",
     "triangle_scores",
 ]
 
@@ -66,7 +67,8 @@ def _star_mean(mesh: Mesh, per_triangle: FloatArray) -> FloatArray:
     return np.where(count > 0, total / np.maximum(count, 1.0), 0.0)
 
 
-def _star_min(mesh: Mesh, per_triangle: FloatArray) -> FloatArray:
+def star_min(mesh: Mesh, per_triangle: FloatArray) -> FloatArray:
+    """Per node, the smallest ``per_triangle`` value of its star (0 for a node in none)."""
     out = np.full(mesh.n_points, np.inf)
     for k in range(3):
         np.minimum.at(out, mesh.triangles[:, k], per_triangle)
@@ -97,7 +99,7 @@ def combined_fitness(mesh: Mesh, alpha: float = 0.8, beta: float = 0.2) -> Float
 
 def worst_fitness(mesh: Mesh, alpha: float = 0.8, beta: float = 0.2) -> FloatArray:
     _, q = triangle_scores(mesh)
-    return np.where(_inverted_stars(mesh, q), 0.0, _star_min(mesh, q))
+    return np.where(_inverted_stars(mesh, q), 0.0, star_min(mesh, q))
 
 
 def capped_fitness(mesh: Mesh, alpha: float = 0.8, beta: float = 0.2) -> FloatArray:

@@ -39,6 +39,7 @@ from .cavity import fill_cavities
 from .discretize import Discretized
 from .errors import Cancelled, LimitExceeded, MeshingError
 from .mesh import Mesh
+from .quality import shape_quality_xy
 from .result import StopFn
 from .sizing import SizeField, SizeTuple
 from .sizing import size_field_at as _size
@@ -91,14 +92,6 @@ def _ccw(ux: float, uy: float, vx: float, vy: float) -> float:
     if a < 0.0:
         a += TWO_PI
     return a
-
-
-@nb.njit(cache=True, inline="always")
-def _quality(ax: float, ay: float, bx: float, by: float, cx: float, cy: float) -> float:
-    area2 = _orient(ax, ay, bx, by, cx, cy)
-    s = (bx - ax) ** 2 + (by - ay) ** 2 + (cx - bx) ** 2 + (cy - by) ** 2
-    s += (ax - cx) ** 2 + (ay - cy) ** 2
-    return 2.0 * math.sqrt(3.0) * area2 / s if s > 0.0 else 0.0
 
 
 @nb.njit(cache=True, inline="always")
@@ -575,7 +568,7 @@ def _try_apex(
         ang = _ccw(ux - wx, uy - wy, vx - wx, vy - wy)
         if ang >= math.pi or ang <= best_a:
             continue
-        if _quality(ux, uy, vx, vy, wx, wy) < q_min:
+        if shape_quality_xy(ux, uy, vx, vy, wx, wy) < q_min:
             continue
         if not _wedge_ok(slots, pts, e, k, w, wx, wy, atol):
             continue
@@ -588,7 +581,7 @@ def _try_apex(
     if allow_new:
         # A new point only when no existing vertex lies in its circumcircle.
         ang_new = _ccw(ux - px, uy - py, vx - px, vy - py)
-        if _quality(ux, uy, vx, vy, px, py) >= q_min and best_a < ang_new:
+        if shape_quality_xy(ux, uy, vx, vy, px, py) >= q_min and best_a < ang_new:
             new_ok = _wedge_ok(slots, pts, e, -1, -1, px, py, atol) and _front_clear(
                 slots, pts, ghead, gent, st, stamp, gp, nx, ny, e, -1, px, py,
                 CLEAR_EDGE * d, CLEAR_VERTEX * d, tol,

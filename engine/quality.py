@@ -8,18 +8,28 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from .mesh import Mesh
 
-__all__ = ["METRICS", "TriangleQuality", "summarize", "triangle_quality"]
+__all__ = ["METRICS", "TriangleQuality", "shape_quality_xy", "summarize", "triangle_quality"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 Metric = Callable[[FloatArray, IntArray], FloatArray]
 
 _SQRT3 = float(np.sqrt(3.0))
+
+
+@numba.njit(cache=True, inline="always")
+def shape_quality_xy(ax: float, ay: float, bx: float, by: float, cx: float, cy: float) -> float:
+    """:func:`shape_quality` of one triangle given by its corners, for compiled kernels."""
+    area2 = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+    s = (bx - ax) ** 2 + (by - ay) ** 2 + (cx - bx) ** 2 + (cy - by) ** 2
+    s += (ax - cx) ** 2 + (ay - cy) ** 2
+    return 2.0 * _SQRT3 * area2 / s if s > 0.0 else 0.0
 
 
 def _sides(points: FloatArray, triangles: IntArray) -> tuple[FloatArray, FloatArray, FloatArray]:
