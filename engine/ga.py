@@ -43,7 +43,7 @@ from numpy.typing import NDArray
 from .colouring import independent_sets
 from .errors import Cancelled
 from .fitness import fitness_code
-from .ga_kernels import accept_moves, draws_per_generation, ga_init, ga_step
+from .ga_kernels import accept_moves, draws_per_generation, ga_init, ga_step, single_width
 from .mesh import Mesh
 from .params import SmoothingParams
 from .result import ProgressFn, SmoothOutcome, StopFn, SweepStats
@@ -104,25 +104,26 @@ class _Run:
         p = self.p
         k, size, gens = len(nodes), p.population, p.generations
         pop_x, pop_y, fit = np.empty((k, size)), np.empty((k, size)), np.empty((k, size))
-        best, box, work = np.empty((k, 3)), np.empty((k, 5)), np.empty((k, 5, size))
+        best, box, work = np.empty((k, 3)), np.empty((k, 5)), np.empty((k, 3, size))
+        single = np.empty((k, 5, single_width(size)), dtype=np.float32)
         draws = np.empty((k, draws_per_generation(size)))
         picks = np.empty((k, 2, size), dtype=np.int64)
         keys = stream_keys(self.base, sweep, nodes)
-        state = (pop_x, pop_y, fit, best, box, work)
+        state = (pop_x, pop_y, fit, best, box)
         chunk = max(1, -(-_EVALS_PER_CALL // (k * size)))
         done = 0
         # Small chunks of nodes per thread: a core busy with other work then slows one chunk,
         # not a fixed half of the set (results do not depend on it).
         previous = numba.set_parallel_chunksize(_NODES_PER_CHUNK)
         try:
-            ga_init(nodes, keys, self.points, *self.args, *state)
+            ga_init(nodes, keys, self.points, *self.args, *state, single)
             while done < gens:
                 if self.should_stop():
                     raise Cancelled("smoothing stopped between GA generations")
                 count = min(chunk, gens - done)
                 rates = (p.crossover_rate, p.mutation_rate)
                 ga_step(nodes, keys, done + 1, count, self.points, *self.args, *rates, *state,
-                        draws, picks)  # fmt: skip
+                        work, single, draws, picks)  # fmt: skip
                 done += count
                 self.progress("smooth", start + share * done / gens)
         finally:

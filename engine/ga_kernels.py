@@ -5,9 +5,10 @@ writes only its own rows: the ``prange`` loops below are race-free, and since ev
 comes from the node's own counter-based stream (:mod:`engine.rng`), a node's result is the same
 whichever thread runs it.
 
-Inside the GA loop the angle term uses a polynomial arctangent (absolute error below 4e-8 rad,
-i.e. a fitness error below 1e-7): it guides selection only. Whether a node moves is decided by
-:func:`accept_moves` with the exact fitness of :mod:`engine.star`, the value that is reported.
+Inside the GA loop candidates are evaluated in single precision (eight to a vector register
+with AVX2) with a polynomial arctangent: the fitness is within about 1e-6 of the exact one and
+guides selection only. Whether a node moves is decided by :func:`accept_moves` with the exact
+double-precision fitness of :mod:`engine.star`, the value that is reported.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from .rng import uniform
+from .rng import uniform_pair
 from .star import (
     ANGLE,
     ASPECT,
@@ -40,23 +41,34 @@ __all__ = [
     "ga_step",
     "mutate",
     "roulette",
+    "single_width",
 ]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 UIntArray = NDArray[np.uint64]
+Float32Array = NDArray[np.float32]
 
-_TWO_SQRT3 = 2.0 * math.sqrt(3.0)
-_THIRD_PI = math.pi / 3.0
+_F32 = np.float32
+#: Single-precision numbers per vector register the padding is for (AVX2; AVX-512 holds 16).
+_LANES = 8
+# Single-precision constants: a float64 constant would promote the whole loop to double.
+_TWO_SQRT3 = _F32(2.0 * math.sqrt(3.0))
+_THIRD_PI = _F32(math.pi / 3.0)
+_HALF_PI = _F32(0.5 * math.pi)
+_PI = _F32(math.pi)
+_ZERO, _ONE, _TINY = _F32(0.0), _F32(1.0), _F32(1e-30)
+_INF = _F32(math.inf)
 _ANGLE_SCALE = (180.0 / math.pi) ** 2 / 21600.0  # squared radians -> the fitness's degree units
-# atan(r) ~ r * P(r^2) on [0, 1]: least-maximum-error fit, |error| < 3.8e-8 rad.
-_A0, _A1, _A2, _A3 = 0.99999934, -0.33329861, 0.19946566, -0.13908629
-_A4, _A5, _A6, _A7 = 0.09642195, -0.05591229, 0.02186293, -0.00405456
+# atan(r) ~ r * P(r^2) on [0, 1]: least-maximum-error fit, |error| < 3.8e-8 rad in exact
+# arithmetic (about 1e-7 in single precision).
+_A0, _A1, _A2, _A3 = _F32(0.99999934), _F32(-0.33329861), _F32(0.19946566), _F32(-0.13908629)
+_A4, _A5, _A6, _A7 = _F32(0.09642195), _F32(-0.05591229), _F32(0.02186293), _F32(-0.00405456)
 
 
 @numba.njit(cache=True, inline="always")
-def _atan_unit(r: float) -> float:
-    """``atan(r)`` for ``0 <= r <= 1``."""
+def _atan_unit(r: np.float32) -> np.float32:
+    """``atan(r)`` for ``0 <= r <= 1``, in single precision."""
     r2 = r * r
     p = ((((((_A7 * r2 + _A6) * r2 + _A5) * r2 + _A4) * r2 + _A3) * r2 + _A2) * r2 + _A1) * r2
     return r * (p + _A0)
@@ -69,8 +81,8 @@ def evaluate(
     xs: FloatArray,
     ys: FloatArray,
     out: FloatArray,
-    work: FloatArray,
-    scale: float,
+    work: Float32Array,
+    box: FloatArray,
     j0: int,
     j1: int,
     points: FloatArray,
@@ -82,83 +94,105 @@ def evaluate(
 ) -> None:
     """GA fitness of candidates ``(xs, ys)`` for the star entries ``j0:j1``; 0 if inadmissible.
 
-    ``work`` is (5, P) scratch. ``scale`` (a power of two near 1 / star size) makes the
-    candidates' offsets O(1), so that the one division per triangle below (shared by the
-    quality and the two arctangent ratios) can neither overflow nor underflow.
+    ``work`` is (5, :func:`single_width` (P)) single-precision scratch; ``box`` is the node's
+    search box (x0, width, y0, height, scale). Coordinates are taken relative to the box's
+    corner and multiplied by ``scale`` (a power of two near 1 / box size) in double precision,
+    so every offset below is O(1): single precision then loses nothing that matters to a guide
+    (fitness within about 1e-6 of the exact one), and the one division per triangle (shared by
+    the quality and the two arctangent ratios) can neither overflow nor underflow. Single
+    precision doubles the candidates one vector instruction handles; the rows are padded to
+    whole vectors (the padding repeats candidate 0), so no candidate falls to a scalar
+    remainder loop.
     """
-    n = len(xs)
+    n, m = len(xs), work.shape[1]
     s_err, s_q, worst, X, Y = work[0], work[1], work[2], work[3], work[4]
-    for c in range(n):
-        s_err[c] = 0.0
-        s_q[c] = 0.0
-        worst[c] = math.inf
-        X[c] = xs[c] * scale
-        Y[c] = ys[c] * scale
+    ox, oy, scale = box[0], box[2], box[4]
+    for c in range(m):
+        s_err[c] = _ZERO
+        s_q[c] = _ZERO
+        worst[c] = _INF
+        i = c if c < n else 0  # padding repeats candidate 0
+        X[c] = _F32((xs[i] - ox) * scale)
+        Y[c] = _F32((ys[i] - oy) * scale)
     need_angle = kind != ASPECT and kind != WORST
     for j in range(j0, j1):
-        ax, ay = points[opp_a[j], 0] * scale, points[opp_a[j], 1] * scale
-        bx, by = points[opp_b[j], 0] * scale, points[opp_b[j], 1] * scale
+        ax, ay = _F32((points[opp_a[j], 0] - ox) * scale), _F32((points[opp_a[j], 1] - oy) * scale)
+        bx, by = _F32((points[opp_b[j], 0] - ox) * scale), _F32((points[opp_b[j], 1] - oy) * scale)
         ex, ey = bx - ax, by - ay
         s0 = ex * ex + ey * ey
         if need_angle:
-            for c in range(n):
+            for c in range(m):
                 dax, day = ax - X[c], ay - Y[c]
                 dbx, dby = bx - X[c], by - Y[c]
                 cross = dax * dby - day * dbx
-                total = max(s0 + (dbx * dbx + dby * dby) + (dax * dax + day * day), 1e-200)
+                total = max(s0 + (dbx * dbx + dby * dby) + (dax * dax + day * day), _TINY)
                 # The angles at p and at a from atan2(|cross|, dot); the one at b is the rest.
                 h = abs(cross)
                 dp = dax * dbx + day * dby
                 da = -(dax * ex + day * ey)
-                big_p, small_p = max(max(abs(dp), h), 1e-150), min(abs(dp), h)
-                big_a, small_a = max(max(abs(da), h), 1e-150), min(abs(da), h)
-                inv = 1.0 / (big_p * big_a * total)
+                big_p, small_p = max(max(abs(dp), h), _TINY), min(abs(dp), h)
+                big_a, small_a = max(max(abs(da), h), _TINY), min(abs(da), h)
+                inv = _ONE / (big_p * big_a * total)
                 q = _TWO_SQRT3 * cross * (big_p * big_a * inv)
                 tp = _atan_unit(small_p * (big_a * total * inv))
                 ta = _atan_unit(small_a * (big_p * total * inv))
-                tp = 0.5 * math.pi - tp if h > abs(dp) else tp
-                tp = math.pi - tp if dp < 0.0 else tp
-                ta = 0.5 * math.pi - ta if h > abs(da) else ta
-                ta = math.pi - ta if da < 0.0 else ta
-                tb = math.pi - tp - ta
-                s_err[c] += (tp - _THIRD_PI) ** 2 + (ta - _THIRD_PI) ** 2 + (tb - _THIRD_PI) ** 2
+                tp = _HALF_PI - tp if h > abs(dp) else tp
+                tp = _PI - tp if dp < _ZERO else tp
+                ta = _HALF_PI - ta if h > abs(da) else ta
+                ta = _PI - ta if da < _ZERO else ta
+                tb = _PI - tp - ta
+                ep, ea, eb = tp - _THIRD_PI, ta - _THIRD_PI, tb - _THIRD_PI
+                s_err[c] += ep * ep + ea * ea + eb * eb
                 s_q[c] += q
                 # A NaN quality (coincident points) must make the candidate inadmissible.
                 worst[c] = worst[c] if q >= worst[c] else q
         else:
-            for c in range(n):
+            for c in range(m):
                 dax, day = ax - X[c], ay - Y[c]
                 dbx, dby = bx - X[c], by - Y[c]
                 cross = dax * dby - day * dbx
-                total = max(s0 + (dbx * dbx + dby * dby) + (dax * dax + day * day), 1e-200)
+                total = max(s0 + (dbx * dbx + dby * dby) + (dax * dax + day * day), _TINY)
                 q = _TWO_SQRT3 * cross / total
                 s_q[c] += q
                 worst[c] = worst[c] if q >= worst[c] else q
     k = max(j1 - j0, 1)
     w = alpha / (alpha + beta)
     for c in range(n):
-        angle = 1.0 - s_err[c] * _ANGLE_SCALE / k
-        combined = w * angle + (1.0 - w) * (s_q[c] / k)
+        angle = 1.0 - float(s_err[c]) * _ANGLE_SCALE / k
+        mean_q = float(s_q[c]) / k
+        low = float(worst[c])
+        combined = w * angle + (1.0 - w) * mean_q
         if kind == ANGLE:
             f = angle
         elif kind == ASPECT:
-            f = s_q[c] / k
+            f = mean_q
         elif kind == COMBINED:
             f = combined
         elif kind == CAPPED:
-            f = min(combined, worst[c] + CAP_MARGIN)
+            f = min(combined, low + CAP_MARGIN)
         else:
-            f = worst[c]
-        out[c] = f if worst[c] > MIN_QUALITY and f > 0.0 else 0.0
+            f = low
+        out[c] = f if low > MIN_QUALITY and f > 0.0 else 0.0
+
+
+def single_width(population: int) -> int:
+    """Length of :func:`evaluate`'s scratch rows: the population rounded up to whole vectors.
+
+    >>> single_width(100), single_width(16)
+    (104, 16)
+    """
+    return -(-population // _LANES) * _LANES
 
 
 def draws_per_generation(population: int) -> int:
-    """Random numbers one generation consumes per node (a fixed count, so streams stay aligned).
+    """Random numbers one generation consumes per node (a fixed count, so streams stay aligned):
+    one per selection slot, one per crossing pair, two per gene; rounded up to whole pairs.
 
-    >>> draws_per_generation(100)
-    550
+    >>> draws_per_generation(100), draws_per_generation(13)
+    (550, 72)
     """
-    return population + population // 2 + 4 * population
+    n = population + population // 2 + 4 * population
+    return n + n % 2
 
 
 @numba.njit(cache=True, parallel=True)
@@ -177,13 +211,14 @@ def ga_init(
     fit: FloatArray,
     best: FloatArray,
     box: FloatArray,
-    work: FloatArray,
+    single: Float32Array,
 ) -> None:
     """First generation of every node of the set, evaluated; sets each node's search box.
 
     Slot 0 holds the node's current position (so the GA can only find better), slots 1..P-1
     uniform draws in the bounding box of the node's neighbours, which contains every admissible
-    position. ``box`` gets (x0, width, y0, height, scale) per node.
+    position. ``box`` gets (x0, width, y0, height, scale) per node; ``single`` is
+    :func:`evaluate`'s scratch.
     """
     size = pop_x.shape[1]
     for s in numba.prange(len(nodes)):
@@ -201,11 +236,10 @@ def ga_init(
         xs, ys = pop_x[s], pop_y[s]
         xs[0], ys[0] = points[node, 0], points[node, 1]
         for c in range(1, size):
-            xs[c] = x0 + (x1 - x0) * uniform(key, np.uint64(2 * c))
-            ys[c] = y0 + (y1 - y0) * uniform(key, np.uint64(2 * c + 1))
-        evaluate(
-            xs, ys, fit[s], work[s], box[s, 4], j0, j1, points, opp_a, opp_b, kind, alpha, beta
-        )
+            ux, uy = uniform_pair(key, np.uint64(c))
+            xs[c] = x0 + (x1 - x0) * ux
+            ys[c] = y0 + (y1 - y0) * uy
+        evaluate(xs, ys, fit[s], single[s], box[s], j0, j1, points, opp_a, opp_b, kind, alpha, beta)
         b = np.argmax(fit[s])
         best[s, 0], best[s, 1], best[s, 2] = xs[b], ys[b], fit[s, b]
 
@@ -308,6 +342,7 @@ def ga_step(
     best: FloatArray,
     box: FloatArray,
     work: FloatArray,
+    single: Float32Array,
     draws: FloatArray,
     picks: IntArray,
 ) -> None:
@@ -315,8 +350,9 @@ def ga_step(
 
     Each generation: roulette-wheel selection (one draw per slot against the cumulative
     fitness), one-point crossover of pairs (with two genes: swap the y genes), uniform mutation
-    of each gene, then the best candidate so far replaces slot 0 (elitism). ``draws`` (S, D)
-    and ``picks`` (S, 2, P) are scratch; D is :func:`draws_per_generation`.
+    of each gene, then the best candidate so far replaces slot 0 (elitism). ``work`` (S, 3, P),
+    ``single`` (S, 5, P, single precision, for :func:`evaluate`), ``draws`` (S, D) and ``picks``
+    (S, 2, P) are scratch; D is :func:`draws_per_generation`.
     """
     size = pop_x.shape[1]
     half = size // 2
@@ -330,16 +366,17 @@ def ga_step(
         cum, nx, ny = work[s, 0], work[s, 1], work[s, 2]
         pick, guide = picks[s, 0], picks[s, 1]
         for g in range(first, first + count):
-            base = np.uint64(2 * size + (g - 1) * per_gen)
-            for i in range(per_gen):
-                u[i] = uniform(key, base + np.uint64(i))
+            # Pairs 0..P-1 of the stream seeded the first generation.
+            base = np.uint64(size + (g - 1) * (per_gen // 2))
+            for i in range(per_gen // 2):
+                u[2 * i], u[2 * i + 1] = uniform_pair(key, base + np.uint64(i))
             roulette(f, cum, guide, u, pick)
             for c in range(size):
                 nx[c], ny[c] = xs[pick[c]], ys[pick[c]]
             crossover(ny, u[cross0:mut0], crossover_rate)
             mutate(nx, ny, xs, ys, u[mut0:val0], u[val0:], box[s], mutation_rate)
             xs[0], ys[0] = best[s, 0], best[s, 1]
-            evaluate(xs, ys, f, work[s], box[s, 4], j0, j1, points, opp_a, opp_b, kind, alpha, beta)
+            evaluate(xs, ys, f, single[s], box[s], j0, j1, points, opp_a, opp_b, kind, alpha, beta)
             b = np.argmax(f)
             if f[b] > best[s, 2]:
                 best[s, 0], best[s, 1], best[s, 2] = xs[b], ys[b], f[b]
