@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .mesh import Mesh, edge_table
-from .quality import shape_quality
+from .quality import corner_angles, shape_quality
 from .relax import relax as relax_nodes
 
 __all__ = ["regularise_valence", "swap_diagonals"]
@@ -128,17 +128,28 @@ def _flip_all(
     return flips
 
 
+@numba.njit(cache=True, inline="always")
+def _valence_cost(angle_sum: float, triangles: int) -> float:
+    """How far a node's mean angle is from 60 degrees, squared: 0 for six triangles around an
+    interior node, for three along a straight boundary, for two at a 120-degree corner."""
+    return (angle_sum / triangles - 60.0) ** 2
+
+
 @numba.njit(cache=True)
 def _flip_valence(
-    points: FloatArray, tri: IntArray, nbr: IntArray, locked: BoolArray, interior: BoolArray,
+    points: FloatArray, tri: IntArray, nbr: IntArray, locked: BoolArray, angle_sum: FloatArray,
     sweeps: int,
 ) -> int:  # fmt: skip
-    """Flip edges that bring interior nodes closer to six neighbours; returns the flips.
+    """Flip edges that bring nodes closer to a 60-degree mean angle; returns the flips.
 
-    An edge a-b (triangles (c, a, b) and (d, b, a)) becomes c-d when that lowers the sum of
-    ``(valence - 6)^2`` over the interior ones of a, b, c, d, neither a nor b drops to three
-    neighbours, and both new triangles keep quality >= ``_VALENCE_Q_FLOOR`` and >=
-    ``_VALENCE_Q_RATIO`` times the old worse one. The sum falls with every flip, so it ends.
+    ``angle_sum`` is the angle around each node in degrees (360 inside, the domain's angle on
+    the boundary: that never changes, as boundary nodes stay). An edge a-b (triangles (c, a, b)
+    and (d, b, a)) becomes c-d when that lowers the sum of :func:`_valence_cost` over a, b, c,
+    d, neither a nor b drops to three triangles (or to one, on the boundary), and both new
+    triangles keep quality >= ``_VALENCE_Q_FLOOR`` and >= ``_VALENCE_Q_RATIO`` times the old
+    worse one. The sum falls with every flip, so it ends. A boundary node with one triangle too
+    few (two of 93 degrees on a hole's edge) takes one from its neighbour with one too many:
+    no node move could mend it, boundary nodes being fixed.
     """
     m = len(tri)
     val = np.zeros(len(points), dtype=np.int64)
@@ -154,19 +165,20 @@ def _flip_valence(
                 if t2 < t1 or locked[t1, k1]:
                     continue
                 c, a, b = tri[t1, k1], tri[t1, (k1 + 1) % 3], tri[t1, (k1 + 2) % 3]
-                if val[a] <= 3 or val[b] <= 3:
+                floor_a = 3 if angle_sum[a] >= 360.0 else 1
+                floor_b = 3 if angle_sum[b] >= 360.0 else 1
+                if val[a] <= floor_a or val[b] <= floor_b:
                     continue
                 k2 = 0
                 while nbr[t2, k2] != t1:
                     k2 += 1
                 d = tri[t2, k2]
-                before = 0
-                after = 0
+                before = 0.0
+                after = 0.0
                 for v, dv in ((a, -1), (b, -1), (c, 1), (d, 1)):
-                    if interior[v]:
-                        before += (val[v] - 6) ** 2
-                        after += (val[v] + dv - 6) ** 2
-                if after >= before:
+                    before += _valence_cost(angle_sum[v], val[v])
+                    after += _valence_cost(angle_sum[v], val[v] + dv)
+                if after >= before - 1e-9:
                     continue
                 old = min(_quality(points, c, a, b), _quality(points, d, b, a))
                 new = min(_quality(points, c, a, d), _quality(points, d, b, c))
@@ -239,7 +251,8 @@ def swap_diagonals(
 
 
 def regularise_valence(mesh: Mesh) -> Mesh | None:
-    """Flip edges toward six neighbours at interior nodes, then relax; None when nothing flips.
+    """Flip edges toward a 60-degree mean angle at every node (six triangles inside), then
+    relax; None when nothing flips.
 
     Unlike :func:`swap_diagonals` this may lower the worst triangle (never below quality
     ``_VALENCE_Q_FLOOR``): it prepares connectivity for a smoother, and
@@ -258,8 +271,10 @@ def regularise_valence(mesh: Mesh) -> Mesh | None:
     points = np.ascontiguousarray(mesh.points, dtype=np.float64)
     nbr = _neighbours(tri)
     locked = nbr < 0
-    interior = np.ones(len(points), dtype=np.bool_)
-    interior[mesh.boundary_edges.ravel()] = False
-    if _flip_valence(points, tri, nbr, locked, interior, _VALENCE_SWEEPS) == 0:
+    angle_sum = np.full(len(points), 360.0)
+    on_boundary = mesh.boundary_nodes
+    angles = corner_angles(points, tri)
+    angle_sum[on_boundary] = np.bincount(tri.ravel(), angles.ravel(), len(points))[on_boundary]
+    if _flip_valence(points, tri, nbr, locked, angle_sum, _VALENCE_SWEEPS) == 0:
         return None
     return relax_nodes(Mesh(mesh.points, tri), sweeps=_RELAX_SWEEPS)

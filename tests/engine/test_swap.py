@@ -103,6 +103,52 @@ def test_swapping_a_large_jittered_mesh_improves_its_worst_triangle() -> None:
     assert _undirected(out.boundary_edges) == _undirected(mesh.boundary_edges)
 
 
+def _lattice(nx: int, ny: int) -> tuple[np.ndarray, np.ndarray]:
+    """Equilateral lattice on a parallelogram-free strip: rows alternate their offset, so the
+    left end has 60 and 120 degree corners; every interior node has six triangles."""
+    pts = [[i + 0.5 * (j % 2), j * np.sqrt(3) / 2] for j in range(ny + 1) for i in range(nx + 1)]
+    tri = []
+    for j in range(ny):
+        for i in range(nx):
+            a, b = j * (nx + 1) + i, j * (nx + 1) + i + 1
+            c, d = a + nx + 1, b + nx + 1
+            tri += [[a, b, c], [b, d, c]] if j % 2 == 0 else [[a, d, c], [a, b, d]]
+    return np.array(pts), np.array(tri, dtype=np.int64)
+
+
+def _flip_edge(pts: np.ndarray, tri: np.ndarray, p: int, q: int) -> None:
+    t1, t2 = np.flatnonzero((tri == p).any(axis=1) & (tri == q).any(axis=1))
+    r = next(v for v in tri[t1] if v not in (p, q))
+    s = next(v for v in tri[t2] if v not in (p, q))
+    for t, new in ((t1, [r, s, p]), (t2, [s, r, q])):
+        (ax, ay), (bx, by), (cx, cy) = pts[new]
+        tri[t] = new if (bx - ax) * (cy - ay) - (by - ay) * (cx - ax) > 0 else new[::-1]
+
+
+def test_a_boundary_node_short_of_a_triangle_takes_one_from_its_neighbour() -> None:
+    """Along a straight edge, a boundary node left with two triangles (90 degrees each) next to
+    one with four (45 degrees each), and one 5-7 pair of interior nodes a row above: no flip
+    lowers interior irregularity alone, and boundary nodes never move, so only counting the
+    boundary's angles mends it (three triangles each, interior all six)."""
+    nx = 8
+    pts, tri = _lattice(nx, 6)
+    _flip_edge(pts, tri, 3, nx + 1 + 3)  # bottom node 3 gives a triangle to 4: 5 and 7 above
+    _flip_edge(pts, tri, nx + 1 + 2, 2 * (nx + 1) + 3)  # the 5-7 pair moves a row up
+    mesh = Mesh(pts, tri)
+    validate_mesh(mesh.points, mesh.triangles)
+    count = np.bincount(tri.ravel(), minlength=len(pts))
+    inner = ~mesh.boundary_nodes
+    assert (count[3], count[4]) == (2, 4)
+    assert sorted(count[inner][count[inner] != 6]) == [5, 7]
+    out = regularise_valence(mesh)
+    assert out is not None
+    validate_mesh(out.points, out.triangles)
+    count = np.bincount(out.triangles.ravel(), minlength=len(pts))
+    assert np.all(count[1:nx] == 3)  # the bottom edge's nodes between its corners
+    assert np.all(count[inner] == 6)
+    np.testing.assert_array_equal(out.points[~inner], pts[~inner])
+
+
 def test_swapping_does_not_modify_its_input() -> None:
     mesh = random_mesh(7)
     before = mesh.triangles.copy()
@@ -110,11 +156,22 @@ def test_swapping_does_not_modify_its_input() -> None:
     np.testing.assert_array_equal(mesh.triangles, before)
 
 
-def _irregularity(mesh: Mesh) -> int:
-    valence = np.bincount(mesh.triangles.ravel(), minlength=len(mesh.points))
-    interior = np.ones(len(mesh.points), dtype=bool)
-    interior[mesh.boundary_nodes] = False
-    return int(((valence[interior] - 6) ** 2).sum())
+def _irregularity(mesh: Mesh, domain_angle: np.ndarray) -> float:
+    """Sum over nodes of (mean angle - 60 degrees)^2, from triangle counts alone."""
+    count = np.bincount(mesh.triangles.ravel(), minlength=len(mesh.points))
+    return float(((domain_angle / count - 60.0) ** 2).sum())
+
+
+def _domain_angles(mesh: Mesh) -> np.ndarray:
+    """360 degrees at interior nodes, the region's angle at boundary nodes."""
+    p, t = mesh.points, mesh.triangles
+    total = np.zeros(len(p))
+    for k in range(3):
+        u = p[t[:, (k + 1) % 3]] - p[t[:, k]]
+        v = p[t[:, (k + 2) % 3]] - p[t[:, k]]
+        cross = u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
+        np.add.at(total, t[:, k], np.degrees(np.arctan2(np.abs(cross), (u * v).sum(axis=1))))
+    return np.where(mesh.boundary_nodes, total, 360.0)
 
 
 @settings(max_examples=25, deadline=None)
@@ -125,7 +182,8 @@ def test_valence_flips_lower_irregularity_and_keep_the_mesh_valid(mesh: Mesh) ->
     if out is None:
         return
     validate_mesh(out.points, out.triangles)
-    assert _irregularity(out) < _irregularity(swapped)
+    angles = _domain_angles(swapped)
+    assert _irregularity(out, angles) < _irregularity(swapped, angles)
     boundary = swapped.boundary_nodes
     np.testing.assert_array_equal(out.points[boundary], swapped.points[boundary])
     assert _undirected(out.boundary_edges) == _undirected(swapped.boundary_edges)
