@@ -128,7 +128,7 @@ def poor_table(names: list[str]) -> dict[str, dict[str, dict[str, float]]]:
     return results
 
 
-def _gmsh_mesh(region: engine.Region, h: float) -> Mesh | None:
+def gmsh_mesh(region: engine.Region, h: float) -> Mesh | None:
     try:
         import gmsh
     except ImportError:
@@ -187,7 +187,7 @@ def own_table(names: list[str]) -> dict[str, dict[str, dict[str, float]]]:
         results[name]["swap+ga"] = f = figures(out) | {"seconds": seconds, "rate": rate}
         print(row(name, "swap+ga", f, seconds, rate), flush=True)
         t0 = time.perf_counter()
-        ref = _gmsh_mesh(parsed.region, h)
+        ref = gmsh_mesh(parsed.region, h)
         if ref is not None:
             results[name]["gmsh"] = g = figures(ref) | {"seconds": time.perf_counter() - t0}
             print(row(name, "gmsh FD+opt", g, g["seconds"]), flush=True)

@@ -9,6 +9,9 @@ processed by the classic rules:
 - ``theta < 135 deg``: a new point on the bisector of the corner (two triangles follow);
 - otherwise: a new point at the ideal apex of the shorter adjacent edge.
 
+Fronts in fine parts of the size field go first (see ``_slot_key``), so they grade up before
+coarse fronts arrive.
+
 Before a new point is made, existing front vertices near it are tried as the apex, so fronts
 merge instead of leaving slivers. When another front lies less than ``GAP_LAYERS`` rows ahead
 (a ray from the edge along the new point's direction meets it), the new point goes to an even
@@ -65,6 +68,10 @@ T_CLOSE_RELAXED = math.radians(100.0)
 #: Slots flatter than this are ordered by front layer, so all fronts advance evenly.
 T_FLAT = math.radians(150.0)
 MAX_TRIES = 3
+#: Slots where the size field is below FINE times its size away from features are processed
+#: as if their angle were FINE_LEAD smaller (corners to close excepted); see _slot_key.
+FINE = 0.8
+FINE_LEAD = math.radians(90.0)
 #: A new point keeps this fraction of its edge length away from front edges and vertices.
 CLEAR_EDGE = 0.45
 CLEAR_VERTEX = 0.55
@@ -265,14 +272,25 @@ def _slot_angle(slots: IntArray, pts: FloatArray, s: int) -> float:
 
 
 @nb.njit(cache=True)
-def _slot_key(slots: IntArray, pts: FloatArray, hv: FloatArray, s: int) -> float:
+def _slot_key(slots: IntArray, pts: FloatArray, hv: FloatArray, gp: FloatArray, s: int) -> float:
     """Smallest angle first; slots flatter than ``T_FLAT`` tie, and ties go to the older front
-    layer, then to the shorter edge (relative to the local size). Failed slots go last."""
+    layer, then to the shorter edge (relative to the local size). Failed slots go last.
+
+    A slot where the size field is below ``FINE`` times its size away from features
+    (``gp[3]``), unless it is a corner to close, comes as if its angle were ``FINE_LEAD``
+    smaller: fronts that must grade up from a fine boundary (a small hole's, a refined
+    leading edge's) then advance before coarse fronts reach them. Coarse rows advance by their
+    own small angles row after row, while a hole's front is all reflex angles; left to the
+    angle order it was reached after a layer or two, and a coarse row met its fine edges with
+    boundary nodes a triangle short (two of 93 degrees: no node move mends that)."""
     a, b = slots[s, VERT], slots[slots[s, NEXT], VERT]
-    length = math.hypot(pts[b, 0] - pts[a, 0], pts[b, 1] - pts[a, 1]) / hv[a]
+    edge = math.hypot(pts[b, 0] - pts[a, 0], pts[b, 1] - pts[a, 1])
+    length = edge / hv[a]
     key = _slot_angle(slots, pts, s)
     if key >= T_FLAT:
         key = T_FLAT + 1e-3 * slots[s, LAYER]
+    if key >= T_CLOSE and hv[a] < FINE * gp[3]:
+        key -= FINE_LEAD
     return key + 1e-7 * min(length, 10.0) + 1e6 * slots[s, FAIL]
 
 
@@ -463,7 +481,7 @@ def _refresh(
     slots[s, FAIL] = 0
     if not _grid_insert(slots, pts, ghead, gent, st, gp, nx, ny, s):
         return False
-    return _heap_push(hkey, href, st, _slot_key(slots, pts, hv, s), s, slots[s, VER])
+    return _heap_push(hkey, href, st, _slot_key(slots, pts, hv, gp, s), s, slots[s, VER])
 
 
 @nb.njit(cache=True)
@@ -735,13 +753,13 @@ def _process(
 @nb.njit(cache=True)
 def _heap_rebuild(
     slots: IntArray, pts: FloatArray, hv: FloatArray, hkey: FloatArray, href: IntArray,
-    st: IntArray,
+    st: IntArray, gp: FloatArray,
 ) -> bool:  # fmt: skip
     st[NH] = 0
     for s in range(st[NS]):
         waiting = slots[s, ALIVE] == 1 and slots[s, FAIL] < MAX_TRIES
         if waiting and not _heap_push(
-            hkey, href, st, _slot_key(slots, pts, hv, s), s, slots[s, VER]
+            hkey, href, st, _slot_key(slots, pts, hv, gp, s), s, slots[s, VER]
         ):
             return False
     return True
@@ -764,7 +782,7 @@ def _run(
         if stamp.shape[0] < slots.shape[0]:
             return GROW
         if st[NH] + 64 > hkey.shape[0] and (
-            not _heap_rebuild(slots, pts, hv, hkey, href, st) or st[NH] + 64 > hkey.shape[0]
+            not _heap_rebuild(slots, pts, hv, hkey, href, st, gp) or st[NH] + 64 > hkey.shape[0]
         ):
             return GROW
         if st[NE] + 4096 > gent.shape[0]:
@@ -780,7 +798,7 @@ def _run(
             st[RELAX_LEFT] = st[LIVE] + 16
             for s in range(st[NS]):
                 slots[s, FAIL] = 0
-            _heap_rebuild(slots, pts, hv, hkey, href, st)
+            _heap_rebuild(slots, pts, hv, hkey, href, st, gp)
             continue
         _, s, ver = _heap_pop(hkey, href, st)
         if slots[s, ALIVE] != 1 or slots[s, VER] != ver:
@@ -800,7 +818,7 @@ def _run(
         else:
             slots[s, FAIL] += 1
             if slots[s, FAIL] < MAX_TRIES:
-                _heap_push(hkey, href, st, _slot_key(slots, pts, hv, s), s, slots[s, VER])
+                _heap_push(hkey, href, st, _slot_key(slots, pts, hv, gp, s), s, slots[s, VER])
     return BUDGET
 
 
@@ -812,7 +830,7 @@ def _init(
     for s in range(st[NS]):
         if not _grid_insert(slots, pts, ghead, gent, st, gp, nx, ny, s):
             return False
-    return _heap_rebuild(slots, pts, hv, hkey, href, st)
+    return _heap_rebuild(slots, pts, hv, hkey, href, st, gp)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -869,7 +887,8 @@ def _grid_params(points: FloatArray, field: SizeField) -> tuple[FloatArray, int,
     pad = 0.5 * cell
     nx = math.ceil((hi[0] - lo[0] + 2 * pad) / cell) + 1
     ny = math.ceil((hi[1] - lo[1] + 2 * pad) / cell) + 1
-    return np.array([lo[0] - pad, lo[1] - pad, cell]), nx, ny
+    # gp[3]: the field's size away from features, against which fine fronts are told apart.
+    return np.array([lo[0] - pad, lo[1] - pad, cell, field.size]), nx, ny
 
 
 def _region_area(points: FloatArray, edges: IntArray) -> float:

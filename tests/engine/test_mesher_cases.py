@@ -100,3 +100,40 @@ def test_should_stop_cancels_meshing() -> None:
     region = make_region([([[0, 0], [1, 0], [1, 1], [0, 1]], [])])
     with pytest.raises(Cancelled):
         mesh_region(region, SizingParams(size=0.003), should_stop=lambda: True)
+
+
+def _circle(cx: float, cy: float, r: float, n: int) -> list[list[float]]:
+    t = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)[::-1]  # clockwise: a hole
+    return np.c_[cx + r * np.cos(t), cy + r * np.sin(t)].tolist()
+
+
+@pytest.mark.parametrize(
+    ("hole", "size"),
+    [
+        (_circle(0.7, 0.45, 0.23, 90), 0.025),  # hole spacing 0.64 of the size
+        (_circle(1.0, 0.5, 0.3, 60), 0.06),  # 0.52
+        (_circle(1.4, 0.6, 0.15, 48), 0.04),  # 0.49
+    ],
+)
+def test_a_finely_divided_hole_keeps_its_boundary_nodes_full(
+    hole: list[list[float]], size: float
+) -> None:
+    """A hole whose ring is divided finer than the size grades up before coarse rows reach it:
+    no node of the hole's boundary is left a triangle short (two of about 93 degrees each
+    instead of three of 62), which no flip or node move could mend."""
+    region = make_region([([[0, 0], [2, 0], [2, 1], [0, 1]], [hole])])
+    mesh, _ = mesh_region(region, SizingParams(size=size))
+    assert_conforming(mesh, region)
+    p, t = mesh.points, mesh.triangles
+    a, b, c = p[t[:, 0]], p[t[:, 1]], p[t[:, 2]]
+    angle = np.zeros(len(p))
+    for v, (x, y, z) in zip(t.T, ((a, b, c), (b, c, a), (c, a, b)), strict=True):
+        u, w = y - x, z - x
+        cross = np.abs(u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0])
+        np.add.at(angle, v, np.degrees(np.arctan2(cross, (u * w).sum(axis=1))))
+    count = np.bincount(t.ravel(), minlength=len(p))
+    on_hole = np.hypot(*(p - np.mean(hole, axis=0)).T) < 1.01 * np.ptp(np.array(hole)[:, 0]) / 2
+    on_hole &= mesh.boundary_nodes
+    assert on_hole.sum() == len(hole)
+    assert (angle[on_hole] / count[on_hole]).max() < 80.0
+    assert triangle_quality(mesh).radius_ratio.min() > 0.8
