@@ -18,6 +18,12 @@ merge instead of leaving slivers. When another front lies less than ``GAP_LAYERS
 fraction of that gap, so the rows left between two approaching fronts are spaced evenly instead
 of the last one being squeezed (narrow channels, fronts colliding).
 
+Fronts that descend from a curved boundary (a circle drawn as a polygon) and are a few rows in,
+with no other front close ahead, put their new points on one equilateral lattice of the size
+(see ``_snap``): following a circle inward, each row must shed about 5.4 nodes, which otherwise
+leaves five- and seven-neighbour pairs all over a disc; on the lattice the interior is regular
+and the irregular nodes stay in the first rows, as in Gmsh's Frontal-Delaunay meshes.
+
 Every triangle is checked against the front: its corners must lie inside the front's wedges,
 its new edges may not cross or touch a front edge, no front vertex may lie in it, and a new
 point must keep its distance from the front. A uniform grid of front edges
@@ -52,9 +58,10 @@ __all__ = ["advance_front"]
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
-# Slot table columns (LAYER: how many triangles separate the slot's edge from the boundary).
-VERT, NEXT, PREV, VER, FAIL, ALIVE, LAYER = 0, 1, 2, 3, 4, 5, 6
-N_COLS = 7
+# Slot table columns (LAYER: how many triangles separate the slot's edge from the boundary;
+# CURVED: 1 when the front descends from a curved stretch of boundary, see _curved_edges).
+VERT, NEXT, PREV, VER, FAIL, ALIVE, LAYER, CURVED = 0, 1, 2, 3, 4, 5, 6, 7
+N_COLS = 8
 # Scalar state indices.
 NP, NT, NS, NE, NH, LIVE, QUERY, RELAXED, RELAX_LEFT, OPS = range(10)
 N_STATE = 16
@@ -68,6 +75,14 @@ T_CLOSE_RELAXED = math.radians(100.0)
 #: Slots flatter than this are ordered by front layer, so all fronts advance evenly.
 T_FLAT = math.radians(150.0)
 MAX_TRIES = 3
+#: Lattice snapping (see _snap): from row SNAP_LAYER in, a new point within SNAP_TOL of the size
+#: of a lattice node moves there, unless another front is less than SNAP_CLEAR rows ahead (the
+#: gap rule spaces those rows); a boundary edge whose both ends turn by CURVE_MIN..CURVE_MAX
+#: degrees is curved.
+SNAP_LAYER = 3
+SNAP_TOL = 0.5
+SNAP_CLEAR = 5.0
+CURVE_MIN, CURVE_MAX = 0.5, 30.0
 #: Slots where the size field is below FINE times its size away from features are processed
 #: as if their angle were FINE_LEAD smaller (corners to close excepted); see _slot_key.
 FINE = 0.8
@@ -497,11 +512,13 @@ def _apply(
     tris[n, 0], tris[n, 1], tris[n, 2] = u, v, w
     st[NT] += 1
     layer = slots[e, LAYER] + 1
+    curved = slots[e, CURVED]
     touched = np.empty(8, dtype=np.int64)
     nt = 0
     if k < 0:
         q = _new_slot(slots, st, w)
         slots[q, LAYER] = layer
+        slots[q, CURVED] = curved
         slots[e, LAYER] = layer
         slots[e, NEXT] = q
         slots[q, PREV] = e
@@ -513,6 +530,7 @@ def _apply(
         pk = slots[k, PREV]
         k2 = _new_slot(slots, st, w)
         slots[k2, LAYER] = layer
+        slots[k2, CURVED] = curved
         slots[e, LAYER] = layer
         slots[e, NEXT] = k
         slots[k, PREV] = e
@@ -657,6 +675,40 @@ def _gap_ahead(
 
 
 @nb.njit(cache=True)
+def _snap(sf: SizeTuple, slots: IntArray, e: int, px: float, py: float) -> tuple[float, float]:
+    """(px, py), or the nearest node of the region's lattice when the front of slot ``e``
+    descends from a curved boundary, is ``SNAP_LAYER`` rows in and the size is uniform there.
+
+    The lattice is equilateral with the field's size, rows along x from the lower left corner
+    of the region's bounding box (the size field's origin). Fronts that follow a curve inward
+    must shed nodes row after row (about 5.4 per row of a circle); re-anchored on one lattice
+    their points stop being rows of the curve, and the interior becomes regular instead of
+    dotted with five- and seven-neighbour pairs. Fronts from straight boundary are rows of
+    their own lattice already; a global lattice at another angle would only add a seam where
+    they meet it.
+    """
+    if slots[e, CURVED] == 0 or slots[e, LAYER] < SNAP_LAYER:
+        return px, py
+    h = sf[0]
+    if _size(sf, px, py) < h * (1.0 - 1e-9):
+        return px, py
+    ox, oy = sf[5], sf[6]
+    rh = 0.5 * math.sqrt(3.0) * h
+    j0 = math.floor((py - oy) / rh)
+    best, bx, by = math.inf, px, py
+    for j in range(j0, j0 + 2):
+        off = 0.5 * h * (j % 2)
+        i = math.floor((px - ox - off) / h + 0.5)
+        x, y = ox + off + i * h, oy + j * rh
+        d = (x - px) ** 2 + (y - py) ** 2
+        if d < best:
+            best, bx, by = d, x, y
+    if best < (SNAP_TOL * h) ** 2:
+        return bx, by
+    return px, py
+
+
+@nb.njit(cache=True)
 def _ideal_apex(
     slots: IntArray, pts: FloatArray, hv: FloatArray, ghead: IntArray, gent: IntArray,
     st: IntArray, stamp: IntArray, gp: FloatArray, nx: int, ny: int, sf: SizeTuple, e: int,
@@ -678,16 +730,16 @@ def _ideal_apex(
     h_far = _size(sf, mx + nx_ * 0.866 * h, my + ny_ * 0.866 * h)
     delta = min(max(0.5 * (h + h_far), 0.55 * length), 1.6 * length)
     height = math.sqrt(max(delta * delta - 0.25 * length * length, 0.09 * length * length))
-    if GAP_LAYERS > 0.0:
-        reach = GAP_LAYERS * height
-        gap = _gap_ahead(
-            slots, pts, ghead, gent, st, stamp, gp, nx, ny, e, e, mx, my, nx_, ny_, reach
-        )
-        rows = math.floor(gap / height + 0.5)
-        if gap < reach and rows >= GAP_MIN_ROWS:
-            height = gap / rows
+    reach = max(GAP_LAYERS, SNAP_CLEAR) * height
+    gap = _gap_ahead(slots, pts, ghead, gent, st, stamp, gp, nx, ny, e, e, mx, my, nx_, ny_, reach)
+    rows = math.floor(gap / height + 0.5)
+    if gap < GAP_LAYERS * height and rows >= GAP_MIN_ROWS:
+        height = gap / rows
     height *= scale
-    return mx + nx_ * height, my + ny_ * height, delta
+    px, py = mx + nx_ * height, my + ny_ * height
+    if gap >= SNAP_CLEAR * height:
+        px, py = _snap(sf, slots, e, px, py)
+    return px, py, delta
 
 
 @nb.njit(cache=True)
@@ -721,16 +773,18 @@ def _process(
         d = 0.5 * (h0 + _size(sf, bx + bis_x * h0, by + bis_y * h0))
         lavg = 0.5 * (la + lc)
         d = min(max(d, 0.7 * lavg), 1.4 * lavg)
-        if GAP_LAYERS > 0.0:
-            # Another front close ahead: space the rows left before it evenly.
-            reach = GAP_LAYERS * d
-            gap = _gap_ahead(
-                slots, pts, ghead, gent, st, stamp, gp, nx, ny, ps, s, bx, by, bis_x, bis_y, reach
-            )
-            rows = math.floor(gap / d + 0.5)
-            if gap < reach and rows >= GAP_MIN_ROWS:
-                d = gap / rows
-        r = _try_apex(*args, ps, bx + bis_x * d, by + bis_y * d, d, q_min, True)
+        # Another front close ahead: space the rows left before it evenly.
+        reach = max(GAP_LAYERS, SNAP_CLEAR) * d
+        gap = _gap_ahead(
+            slots, pts, ghead, gent, st, stamp, gp, nx, ny, ps, s, bx, by, bis_x, bis_y, reach
+        )
+        rows = math.floor(gap / d + 0.5)
+        if gap < GAP_LAYERS * d and rows >= GAP_MIN_ROWS:
+            d = gap / rows
+        qx, qy = bx + bis_x * d, by + bis_y * d
+        if gap >= SNAP_CLEAR * d:
+            qx, qy = _snap(sf, slots, s, qx, qy)
+        r = _try_apex(*args, ps, qx, qy, d, q_min, True)
         if r != 0:
             return r
         if close_limit <= theta < T_CLOSE_RELAXED:
@@ -891,6 +945,22 @@ def _grid_params(points: FloatArray, field: SizeField) -> tuple[FloatArray, int,
     return np.array([lo[0] - pad, lo[1] - pad, cell, field.size]), nx, ny
 
 
+def _curved_edges(points: FloatArray, edges: IntArray) -> IntArray:
+    """1 for boundary edges whose both ends turn by CURVE_MIN..CURVE_MAX degrees (a curve drawn
+    as a polygon), 0 for straight stretches and corners."""
+    n = len(points)
+    nxt = np.full(n, -1, dtype=np.int64)
+    nxt[edges[:, 0]] = edges[:, 1]
+    prv = np.full(n, -1, dtype=np.int64)
+    prv[edges[:, 1]] = edges[:, 0]
+    d_in = points - points[prv]
+    d_out = points[nxt] - points
+    cross = d_in[:, 0] * d_out[:, 1] - d_in[:, 1] * d_out[:, 0]
+    turn = np.abs(np.degrees(np.arctan2(cross, (d_in * d_out).sum(axis=1))))
+    smooth = (turn > CURVE_MIN) & (turn < CURVE_MAX)
+    return (smooth[edges[:, 0]] & smooth[edges[:, 1]]).astype(np.int64)
+
+
 def _region_area(points: FloatArray, edges: IntArray) -> float:
     a, b = points[edges[:, 0]], points[edges[:, 1]]
     return 0.5 * float(np.sum(a[:, 0] * b[:, 1] - b[:, 0] * a[:, 1]))
@@ -931,6 +1001,7 @@ def advance_front(
     slots[: len(edges), NEXT] = nxt
     slots[nxt, PREV] = np.arange(len(edges))
     slots[: len(edges), ALIVE] = 1
+    slots[: len(edges), CURVED] = _curved_edges(points, edges)
     gp, gnx, gny = _grid_params(points, field)
     st = np.zeros(N_STATE, dtype=np.int64)
     st[NP], st[NS], st[LIVE] = n0, len(edges), len(edges)
