@@ -93,8 +93,6 @@ CLEAR_VERTEX = 0.55
 #: Existing vertices within this fraction of the intended edge length from a new point's
 #: position are tried as the apex instead.
 MERGE_RADIUS = 0.7
-#: A new point is preferred over an existing apex only when its triangle is this much better.
-NEW_POINT_MARGIN = 0.2
 Q_MIN = 0.4
 #: Another front closer than this many rows ahead spaces the remaining rows evenly.
 GAP_LAYERS = 3.0
