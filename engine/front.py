@@ -297,8 +297,7 @@ def _slot_key(slots: IntArray, pts: FloatArray, hv: FloatArray, gp: FloatArray, 
     angle order it was reached after a layer or two, and a coarse row met its fine edges with
     boundary nodes a triangle short (two of 93 degrees: no node move mends that)."""
     a, b = slots[s, VERT], slots[slots[s, NEXT], VERT]
-    edge = math.hypot(pts[b, 0] - pts[a, 0], pts[b, 1] - pts[a, 1])
-    length = edge / hv[a]
+    length = math.hypot(pts[b, 0] - pts[a, 0], pts[b, 1] - pts[a, 1]) / hv[a]
     key = _slot_angle(slots, pts, s)
     if key >= T_FLAT:
         key = T_FLAT + 1e-3 * slots[s, LAYER]
@@ -707,6 +706,32 @@ def _snap(sf: SizeTuple, slots: IntArray, e: int, px: float, py: float) -> tuple
 
 
 @nb.njit(cache=True)
+def _place(
+    slots: IntArray, pts: FloatArray, ghead: IntArray, gent: IntArray, st: IntArray,
+    stamp: IntArray, gp: FloatArray, nx: int, ny: int, sf: SizeTuple, e: int, e2: int,
+    s: int, ox: float, oy: float, dx: float, dy: float, step: float, scale: float,
+) -> tuple[float, float, float]:  # fmt: skip
+    """The new point ``step`` from (ox, oy) along the unit direction (dx, dy), for slot ``s``,
+    and the step taken.
+
+    When another front (not slot ``e``'s or ``e2``'s edge) lies less than ``GAP_LAYERS`` rows
+    ahead, the rows left are spaced evenly: the step becomes ``gap / round(gap / step)``. The
+    step is then multiplied by ``scale``; with no front within ``SNAP_CLEAR`` steps, the point
+    may move onto the lattice (:func:`_snap`).
+    """
+    reach = max(GAP_LAYERS, SNAP_CLEAR) * step
+    gap = _gap_ahead(slots, pts, ghead, gent, st, stamp, gp, nx, ny, e, e2, ox, oy, dx, dy, reach)
+    rows = math.floor(gap / step + 0.5)
+    if gap < GAP_LAYERS * step and rows >= GAP_MIN_ROWS:
+        step = gap / rows
+    step *= scale
+    px, py = ox + dx * step, oy + dy * step
+    if gap >= SNAP_CLEAR * step:
+        px, py = _snap(sf, slots, s, px, py)
+    return px, py, step
+
+
+@nb.njit(cache=True)
 def _ideal_apex(
     slots: IntArray, pts: FloatArray, hv: FloatArray, ghead: IntArray, gent: IntArray,
     st: IntArray, stamp: IntArray, gp: FloatArray, nx: int, ny: int, sf: SizeTuple, e: int,
@@ -728,15 +753,9 @@ def _ideal_apex(
     h_far = _size(sf, mx + nx_ * 0.866 * h, my + ny_ * 0.866 * h)
     delta = min(max(0.5 * (h + h_far), 0.55 * length), 1.6 * length)
     height = math.sqrt(max(delta * delta - 0.25 * length * length, 0.09 * length * length))
-    reach = max(GAP_LAYERS, SNAP_CLEAR) * height
-    gap = _gap_ahead(slots, pts, ghead, gent, st, stamp, gp, nx, ny, e, e, mx, my, nx_, ny_, reach)
-    rows = math.floor(gap / height + 0.5)
-    if gap < GAP_LAYERS * height and rows >= GAP_MIN_ROWS:
-        height = gap / rows
-    height *= scale
-    px, py = mx + nx_ * height, my + ny_ * height
-    if gap >= SNAP_CLEAR * height:
-        px, py = _snap(sf, slots, e, px, py)
+    px, py, _ = _place(
+        slots, pts, ghead, gent, st, stamp, gp, nx, ny, sf, e, e, e, mx, my, nx_, ny_, height, scale
+    )
     return px, py, delta
 
 
@@ -771,17 +790,10 @@ def _process(
         d = 0.5 * (h0 + _size(sf, bx + bis_x * h0, by + bis_y * h0))
         lavg = 0.5 * (la + lc)
         d = min(max(d, 0.7 * lavg), 1.4 * lavg)
-        # Another front close ahead: space the rows left before it evenly.
-        reach = max(GAP_LAYERS, SNAP_CLEAR) * d
-        gap = _gap_ahead(
-            slots, pts, ghead, gent, st, stamp, gp, nx, ny, ps, s, bx, by, bis_x, bis_y, reach
-        )
-        rows = math.floor(gap / d + 0.5)
-        if gap < GAP_LAYERS * d and rows >= GAP_MIN_ROWS:
-            d = gap / rows
-        qx, qy = bx + bis_x * d, by + bis_y * d
-        if gap >= SNAP_CLEAR * d:
-            qx, qy = _snap(sf, slots, s, qx, qy)
+        qx, qy, d = _place(
+            slots, pts, ghead, gent, st, stamp, gp, nx, ny, sf, ps, s, s, bx, by, bis_x, bis_y, d,
+            1.0,
+        )  # fmt: skip
         r = _try_apex(*args, ps, qx, qy, d, q_min, True)
         if r != 0:
             return r
