@@ -9,6 +9,7 @@ import pytest
 
 from engine import SizingParams, make_region, mesh_region, triangle_quality
 from engine.errors import Cancelled, LimitExceeded
+from engine.quality import corner_angles
 from engine.sizing import build_size_field, estimate_triangles
 
 from ..conftest import load_case
@@ -125,12 +126,7 @@ def test_a_finely_divided_hole_keeps_its_boundary_nodes_full(
     mesh, _ = mesh_region(region, SizingParams(size=size))
     assert_conforming(mesh, region)
     p, t = mesh.points, mesh.triangles
-    a, b, c = p[t[:, 0]], p[t[:, 1]], p[t[:, 2]]
-    angle = np.zeros(len(p))
-    for v, (x, y, z) in zip(t.T, ((a, b, c), (b, c, a), (c, a, b)), strict=True):
-        u, w = y - x, z - x
-        cross = np.abs(u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0])
-        np.add.at(angle, v, np.degrees(np.arctan2(cross, (u * w).sum(axis=1))))
+    angle = np.bincount(t.ravel(), corner_angles(p, t).ravel(), len(p))
     count = np.bincount(t.ravel(), minlength=len(p))
     on_hole = np.hypot(*(p - np.mean(hole, axis=0)).T) < 1.01 * np.ptp(np.array(hole)[:, 0]) / 2
     on_hole &= mesh.boundary_nodes

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from engine import PipelineParams, SizingParams, SmoothingParams, mesh_then_smooth
 from engine.errors import InvalidBoundary
 from engine.mesh import Mesh, edge_table, validate_mesh
-from engine.quality import shape_quality
+from engine.quality import corner_angles, shape_quality
 from engine.swap import regularise_valence, swap_diagonals
 
 from ..conftest import DATA
@@ -164,13 +164,8 @@ def _irregularity(mesh: Mesh, domain_angle: np.ndarray) -> float:
 
 def _domain_angles(mesh: Mesh) -> np.ndarray:
     """360 degrees at interior nodes, the region's angle at boundary nodes."""
-    p, t = mesh.points, mesh.triangles
-    total = np.zeros(len(p))
-    for k in range(3):
-        u = p[t[:, (k + 1) % 3]] - p[t[:, k]]
-        v = p[t[:, (k + 2) % 3]] - p[t[:, k]]
-        cross = u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
-        np.add.at(total, t[:, k], np.degrees(np.arctan2(np.abs(cross), (u * v).sum(axis=1))))
+    t = mesh.triangles
+    total = np.bincount(t.ravel(), corner_angles(mesh.points, t).ravel(), len(mesh.points))
     return np.where(mesh.boundary_nodes, total, 360.0)
 
 
