@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import doctest
 import importlib.util
 import json
 import sys
@@ -87,6 +88,12 @@ def test_benchmark_tables_come_from_the_result_files(
     assert "| case | triangles | s |" in text
     assert "| l_shape | 7,884 | 0.05234 |" in text
     assert "| a\\|b |  | 1,234 |" in text  # a missing column stays empty; pipes are escaped
+
+
+def test_hook_docstring_examples() -> None:
+    result = doctest.testmod(hooks, optionflags=doctest.NORMALIZE_WHITESPACE)
+    assert result.attempted > 0
+    assert result.failed == 0
 
 
 def test_markers_expand_and_unknown_ones_fail() -> None:
