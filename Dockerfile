@@ -2,10 +2,10 @@
 # Build: docker build -t evomesh .    Run: docker run -p 8000:8000 -v evomesh-data:/data evomesh
 FROM python:3.11-slim AS build
 WORKDIR /src
-COPY pyproject.toml README.md ./
+COPY pyproject.toml README.md LICENSE ./
 COPY engine ./engine
 COPY service ./service
-RUN pip wheel --no-cache-dir --wheel-dir /wheels '.[dask,formats]'
+RUN pip wheel --no-cache-dir --wheel-dir /wheels '.[dask]'
 
 FROM python:3.11-slim
 ENV PYTHONDONTWRITEBYTECODE=1 \

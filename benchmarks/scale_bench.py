@@ -15,6 +15,8 @@ processes. Three parts, bounded in count and time; prints, asserts nothing.
    the worker to a file the service reads, with the scheduler's responsiveness meanwhile.
 
     python benchmarks/scale_bench.py [--jobs 1000] [--slow-jobs 8]
+
+Each part writes its figures to ``benchmarks/results/scale_<part>.json`` (``record.py``).
 """
 
 from __future__ import annotations
@@ -34,6 +36,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+
+from record import write_rows  # noqa: E402 - benchmarks/ is on the path as the script's folder
 
 from tests.e2e.dask_cluster import DaskCluster  # noqa: E402 - after the path set-up
 from tests.e2e.server import Server, descendants  # noqa: E402
@@ -109,6 +113,7 @@ def overhead(folder: Path, jobs: int) -> dict[tuple[str, int], float]:
     print(f"== 1. per-job overhead: one batch of {jobs} mesh jobs (~500 triangles)")
     print(f"{'backend':<8} {'workers':>7} {'seconds':>8} {'jobs/s':>8}  CPU ms per job")
     wall: dict[tuple[str, int], float] = {}
+    rows: list[dict[str, object]] = []
     for workers in (1, 2):  # each pair back to back: the machine's other load drifts
         for dask in (False, True):
             name = "dask" if dask else "local"
@@ -121,6 +126,15 @@ def overhead(folder: Path, jobs: int) -> dict[tuple[str, int], float]:
             wall[name, workers] = seconds
             shares = ", ".join(f"{k} {v:.1f}" for k, v in cpu.items())
             print(f"{name:<8} {workers:>7} {seconds:>8.2f} {jobs / seconds:>8.1f}  {shares}")
+            rows.append(
+                {
+                    "backend": name,
+                    "workers": workers,
+                    "s": round(seconds, 2),
+                    "jobs/s": round(jobs / seconds, 1),
+                    "CPU ms per job": shares,
+                }
+            )
     for workers in (1, 2):
         extra = (wall["dask", workers] - wall["local", workers]) * 1000 / jobs
         ratio = wall["local", workers] / wall["dask", workers]
@@ -128,6 +142,17 @@ def overhead(folder: Path, jobs: int) -> dict[tuple[str, int], float]:
             f"Dask overhead with {workers} worker(s): {extra:+.1f} ms per job "
             f"(Dask runs at {ratio:.2f}x the local pool's rate)"
         )
+        for row in rows:
+            if row["backend"] == "dask" and row["workers"] == workers:
+                row["Dask overhead ms per job"] = round(extra, 1)
+    write_rows(
+        "scale_overhead",
+        rows,
+        title="Scale-out: per-job overhead, local pool and Dask (benchmarks/scale_bench.py)",
+        notes=f"One /batches request of {jobs} mesh jobs (about 500 triangles, smoothing none), "
+        "polled until every job ended; Dask's overhead is the wall time per job against the "
+        f"local pool with as many workers. {_load()}",
+    )
     return wall
 
 
@@ -160,6 +185,7 @@ def scaling(folder: Path, jobs: int) -> None:
     print(f"== 2. scaling: one batch of {jobs} jobs of about 1 s (unit square, size {size})")
     print(f"{'backend':<8} {'workers':>7} {'seconds':>8} {'jobs/s':>8}  mean run s")
     rate: dict[tuple[str, int], float] = {}
+    rows: list[dict[str, object]] = []
     for workers in (1, 2):
         for dask in (False, True):
             name = "dask" if dask else "local"
@@ -169,8 +195,26 @@ def scaling(folder: Path, jobs: int) -> None:
                 run_s = statistics.mean(run_seconds(server, i) for i in ids)
             rate[name, workers] = jobs / seconds
             print(f"{name:<8} {workers:>7} {seconds:>8.2f} {jobs / seconds:>8.2f}  {run_s:.2f}")
+            rows.append(
+                {
+                    "backend": name,
+                    "workers": workers,
+                    "s": round(seconds, 2),
+                    "jobs/s": round(jobs / seconds, 2),
+                    "mean run s": round(run_s, 2),
+                }
+            )
     for name in ("local", "dask"):
-        print(f"{name}: 1 -> 2 workers: {rate[name, 2] / rate[name, 1]:.2f}x (2.00x is linear)")
+        speedup = rate[name, 2] / rate[name, 1]
+        print(f"{name}: 1 -> 2 workers: {speedup:.2f}x (2.00x is linear)")
+        rows[-1 if name == "dask" else -2]["speed-up 1 -> 2 workers"] = round(speedup, 2)
+    write_rows(
+        "scale_scaling",
+        rows,
+        title="Scale-out: scaling from 1 to 2 workers (benchmarks/scale_bench.py)",
+        notes=f"One batch of {jobs} mesh jobs of about 1 s each (unit square at size {size}); "
+        f"2.00x from 1 to 2 workers is linear. {_load()}",
+    )
 
 
 def run_seconds(server: Server, job_id: str) -> float:
@@ -199,6 +243,7 @@ async def _large_results(address: str, folder: Path, rounds: int) -> None:
                 await asyncio.sleep(0.005)
 
         print(f"{'path':<28} {'median ms':>9} {'min ms':>7}  scheduler ping p50 / max ms")
+        rows: list[dict[str, object]] = []
         for how in ("through the scheduler", "straight from the worker", "worker writes a file"):
             times: list[float] = []
             pings: list[float] = []
@@ -229,6 +274,27 @@ async def _large_results(address: str, folder: Path, rounds: int) -> None:
                 f"{how:<28} {statistics.median(times) * 1000:>9.0f} {min(times) * 1000:>7.0f}  "
                 f"{statistics.median(pings) * 1000:.1f} / {max(pings) * 1000:.0f}"
             )
+            rows.append(
+                {
+                    "path": how,
+                    "median ms": round(statistics.median(times) * 1000),
+                    "min ms": round(min(times) * 1000),
+                    "scheduler ping p50 ms": round(statistics.median(pings) * 1000, 1),
+                    "scheduler ping max ms": round(max(pings) * 1000),
+                }
+            )
+    write_rows(
+        "scale_large",
+        rows,
+        title="Scale-out: large results from a Dask worker (benchmarks/scale_bench.py)",
+        notes=f"A {LARGE_BYTES / 1e6:.0f} MB result (the compressed document of a "
+        f"1,001,834-triangle mesh), {rounds} rounds per path, with the scheduler's ping time "
+        f"meanwhile. {_load()}",
+    )
+
+
+def _load() -> str:
+    return f"Load average (1 min) when the part ended: {os.getloadavg()[0]:.1f}."
 
 
 def _timed_write(nbytes: int, path: str) -> float:

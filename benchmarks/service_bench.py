@@ -29,6 +29,8 @@ import httpx
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from record import write_rows  # noqa: E402 - benchmarks/ is on the path as the script's folder
+
 from tests.e2e.server import Server, descendants  # noqa: E402 - after the path set-up
 
 #: A unit square at this size is about 500 triangles: area / (sqrt(3)/4 * size^2).
@@ -52,6 +54,13 @@ def cpu_seconds(pid: int) -> float:
     except OSError:
         return 0.0
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def p50_p99_ms(values: list[float]) -> tuple[float | None, float | None]:
+    if len(values) < 2:
+        return None, None
+    q = statistics.quantiles(values, n=100)
+    return round(q[49] * 1000, 1), round(q[98] * 1000, 1)
 
 
 def quantiles(values: list[float]) -> str:
@@ -124,7 +133,8 @@ async def client_loop(
                 break
 
 
-async def run(args: argparse.Namespace, url: str, server_pid: int) -> None:
+async def run(args: argparse.Namespace, url: str, server_pid: int, workers: int) -> None:
+    load_before = os.getloadavg()[0]
     todo: asyncio.Queue[int] = asyncio.Queue()
     for i in range(args.jobs):
         todo.put_nowait(i)
@@ -185,6 +195,35 @@ async def run(args: argparse.Namespace, url: str, server_pid: int) -> None:
         f"CPU per job          server {server_ms:.1f} ms, workers {worker_ms:.1f} ms, "
         f"load clients {client_ms:.1f} ms"
     )
+    probe_p50, probe_p99 = p50_p99_ms(probed)
+    seen_p50, seen_p99 = p50_p99_ms(load.latencies)
+    figures: list[tuple[str, object]] = [
+        ("jobs submitted", len(load.submitted)),
+        ("load clients", args.clients),
+        ("workers", workers),
+        ("triangles per job", len(doc["triangles"])),
+        ("wall time (s)", round(wall, 2)),
+        ("throughput (jobs/s)", round(len(load.ended) / wall, 1)),
+        ("lost jobs", len(lost) + missing),
+        ("GET /jobs/{id} p50, probe (ms)", probe_p50),
+        ("GET /jobs/{id} p99, probe (ms)", probe_p99),
+        ("GET /jobs/{id} p50, as load clients saw it (ms)", seen_p50),
+        ("GET /jobs/{id} p99, as load clients saw it (ms)", seen_p99),
+        ("CPU per job, server (ms)", round(server_ms, 1)),
+        ("CPU per job, workers (ms)", round(worker_ms, 1)),
+        ("CPU per job, load clients (ms)", round(client_ms, 1)),
+    ]
+    path = write_rows(
+        "service",
+        [{"figure": name, "value": value} for name, value in figures],
+        title="Service: many clients, small jobs (benchmarks/service_bench.py)",
+        notes=f"A real evomesh serve on loopback; {args.clients} concurrent clients submit "
+        f"{args.jobs} mesh jobs (unit square, smoothing none) and poll each every "
+        f"{args.poll * 1000:.0f} ms; GET /jobs/{{id}} latency timed by a separate probe every "
+        "10 ms while the workers are busy. Load average (1 min) at the start: "
+        f"{load_before:.1f}.",
+    )
+    print(f"figures written to   {path.relative_to(ROOT)}")
 
 
 def main() -> None:
@@ -200,7 +239,7 @@ def main() -> None:
         try:
             ready = server.client.get("/ready").json()
             print(f"server               {server.url}, {ready['workers']['alive']} workers")
-            asyncio.run(run(args, server.url, server.proc.pid))
+            asyncio.run(run(args, server.url, server.proc.pid, ready["workers"]["alive"]))
         finally:
             server.stop()
 

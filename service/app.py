@@ -23,7 +23,7 @@ from .jobs.store import JobStore
 from .metrics import Metrics
 from .middleware import BodyLimit
 from .processes import PROCESSES, Process
-from .routers import batches, jobs, landing, viewer
+from .routers import batches, docs, jobs, landing, viewer
 from .routers.processes import build_router
 from .settings import Settings
 
@@ -65,6 +65,8 @@ def create_app(
         summary="Triangular meshing with genetic-algorithm smoothing (OGC API - Processes)",
         version="1.0.0",
         lifespan=lifespan,
+        docs_url=None,  # served by routers.docs from vendored assets (FastAPI's loads a CDN)
+        redoc_url=None,
     )
     app.state.settings = settings
     app.state.metrics = Metrics()
@@ -74,6 +76,7 @@ def create_app(
     app.include_router(build_router(procs))
     app.include_router(jobs.router)
     app.include_router(batches.router)
+    app.include_router(docs.router)
     viewer.install(app)
     if settings.cors_origins:
         app.add_middleware(
