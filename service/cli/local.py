@@ -13,7 +13,7 @@ import numpy as np
 import engine
 from engine import EngineError, PipelineParams, SizingParams, SmoothingParams
 
-from ..document import CELL_FIELDS, mesh_from_document, result_document
+from ..document import cell_data, mesh_from_document, result_document
 from ..formats import EXTENSIONS, FORMATS, StoredResult
 from ..geojson import BoundaryInputError, parse_region
 from .files import output_format, read_mesh, say, write_output
@@ -204,14 +204,13 @@ def run_quality(args: argparse.Namespace) -> int:
     fitness = SmoothingParams(fitness=args.fitness, alpha=args.alpha, beta=args.beta)
     snap = engine.assess_mesh(mesh, fitness)
     if args.json:
-        cells = {k: getattr(snap.quality, k).tolist() for k in CELL_FIELDS}
-        doc = {"summary": snap.summary, "cell_data": cells}
+        doc = {"summary": snap.summary, "cell_data": cell_data(snap)}
         print(json.dumps(doc | {"point_data": {"fitness": snap.fitness.tolist()}}))
         return 0
     s = snap.summary
     print(f"triangles      {s['count']}")
     print(f"points         {s['points']}")
-    for key in ("quality", "radius_ratio", "min_angle", "max_angle"):
+    for key in engine.METRICS:
         v = s[key]
         print(f"{key:14s} min {v['min']:.4f}  p5 {v['p5']:.4f}  mean {v['mean']:.4f}")
     print(f"below 30 deg   {100 * s['share_below_30deg']:.2f}%")
