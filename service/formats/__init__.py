@@ -33,7 +33,7 @@ from .registry import (
     register_format,
 )
 
-__all__ = [
+__all__ = [  # the table, its lookups and its errors (registry.py's own list)
     "EXTENSIONS",
     "FORMATS",
     "FormatError",

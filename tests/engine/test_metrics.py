@@ -9,21 +9,16 @@ import pytest
 from hypothesis import given, settings
 
 import engine
-from engine.quality import Metric, TriangleGeometry, corner_angles, register_metric
+from engine.quality import Metric, TriangleGeometry, corner_angles
 
+from .extra_metrics import edge_ratio as registered_edge_ratio
 from .random_meshes import meshes
-
-
-def _edge_ratio(g: TriangleGeometry) -> np.ndarray:
-    sides = np.sqrt(np.stack(g.squared_sides))
-    return sides.max(axis=0) / sides.min(axis=0)
 
 
 @pytest.fixture
 def edge_ratio() -> Iterator[Metric]:
-    metric = register_metric(Metric("edge_ratio", _edge_ratio, "longest / shortest side", 1, 10))
-    yield metric
-    del engine.METRICS["edge_ratio"]
+    with registered_edge_ratio() as metric:
+        yield metric
 
 
 def test_the_registry_lists_the_document_fields_in_order() -> None:

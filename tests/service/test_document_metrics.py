@@ -10,21 +10,17 @@ import pytest
 from PIL import Image
 
 import engine
-from engine.quality import Metric, TriangleGeometry, register_metric
+from engine.quality import Metric
 from service.document import cell_data, result_document
 from service.render import METRICS, PictureOptions, render_picture
 
-
-def _edge_ratio(g: TriangleGeometry) -> np.ndarray:
-    sides = np.sqrt(np.stack(g.squared_sides))
-    return sides.max(axis=0) / sides.min(axis=0)
+from ..engine.extra_metrics import edge_ratio as registered_edge_ratio
 
 
 @pytest.fixture
 def edge_ratio() -> Iterator[Metric]:
-    metric = register_metric(Metric("edge_ratio", _edge_ratio, "longest / shortest side", 1, 10))
-    yield metric
-    del engine.METRICS["edge_ratio"]
+    with registered_edge_ratio() as metric:
+        yield metric
 
 
 def _result() -> engine.Result:
