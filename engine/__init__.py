@@ -27,7 +27,7 @@ from .fitness import FITNESS, node_fitness
 from .mesh import Mesh, validate_mesh
 from .params import PipelineParams, SizingParams, SmoothingParams
 from .pipeline import assess_mesh, mesh_region, mesh_then_smooth, smooth_mesh, warmup
-from .quality import METRICS, TriangleQuality, summarize, triangle_quality
+from .quality import METRICS, Metric, TriangleQuality, register_metric, summarize, triangle_quality
 from .result import ProgressFn, Result, SmoothOutcome, Snapshot, StopFn, SweepStats
 from .sizing import estimate_triangles
 from .smoothing import SMOOTHERS
@@ -43,6 +43,7 @@ __all__ = [
     "LimitExceeded",
     "Mesh",
     "MeshingError",
+    "Metric",
     "PipelineParams",
     "PolygonPart",
     "ProgressFn",
@@ -61,6 +62,7 @@ __all__ = [
     "mesh_region",
     "mesh_then_smooth",
     "node_fitness",
+    "register_metric",
     "smooth_mesh",
     "summarize",
     "triangle_quality",

@@ -9,16 +9,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from engine import Mesh, Result, Snapshot, validate_mesh
+from engine import METRICS, Mesh, Result, Snapshot, validate_mesh
 from engine.errors import InvalidMesh
 
-__all__ = ["mesh_from_document", "result_document"]
-
-CELL_FIELDS = ("quality", "radius_ratio", "min_angle", "max_angle")
+__all__ = ["cell_data", "mesh_from_document", "result_document"]
 
 
-def _cell_data(snap: Snapshot) -> dict[str, list[float]]:
-    return {name: getattr(snap.quality, name).tolist() for name in CELL_FIELDS}
+def cell_data(snap: Snapshot) -> dict[str, list[float]]:
+    """The ``cell_data`` of a document: each metric of :data:`engine.METRICS` per triangle."""
+    return {name: snap.quality[name].tolist() for name in METRICS}
 
 
 def result_document(
@@ -46,11 +45,11 @@ def result_document(
             "fitness_initial": first.fitness.tolist(),
             "boundary": final.mesh.boundary_nodes.astype(int).tolist(),
         },
-        "cell_data": _cell_data(final),
+        "cell_data": cell_data(final),
         "initial": {
             "points": pts(first),
             "triangles": first.mesh.triangles.tolist(),
-            "cell_data": _cell_data(first),
+            "cell_data": cell_data(first),
         },
         "summary": {
             "initial": first.summary,

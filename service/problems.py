@@ -25,6 +25,7 @@ from starlette.responses import JSONResponse
 
 from engine import InvalidBoundary, InvalidMesh
 
+from .formats import FormatError
 from .geojson import BoundaryInputError
 from .jobs.admission import QueueFull
 
@@ -154,6 +155,10 @@ def problem_for(exc: Exception) -> Problem:
         elif exc.point is not None:
             pointer += f"/points/{exc.point}"
         return Problem(422, exc.message, kind="invalid-mesh", pointer=pointer)
+    if isinstance(exc, FormatError):  # a request option at fault, or a writer that failed
+        if exc.parameter:
+            return Problem(400, exc.message, kind="invalid-parameter", parameter=exc.parameter)
+        return Problem(500, exc.message, kind="format-error")
     if isinstance(exc, QueueFull):
         return Problem(
             429,
@@ -194,6 +199,7 @@ def install(app: FastAPI) -> None:
         BoundaryInputError,
         InvalidBoundary,
         InvalidMesh,
+        FormatError,
         QueueFull,
         Exception,
     ):

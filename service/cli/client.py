@@ -1,6 +1,6 @@
-"""``evomesh submit``, ``evomesh batch`` and ``evomesh jobs``: the command line as a client of
-a running service. Progress shows as bars on a terminal and as plain lines otherwise; a problem
-from the service is printed as its title and detail on one line, with a non-zero exit status.
+"""``evomesh submit``, ``results``, ``dismiss`` and ``jobs``: the command line as a client of a
+running service, on :mod:`service.client`. Progress shows as a bar on a terminal and as plain
+lines otherwise; a problem from the service is printed as its title and detail on one line.
 """
 
 from __future__ import annotations
@@ -9,22 +9,19 @@ import argparse
 import json
 import os
 import sys
-import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from .api import DEFAULT_URL, Api, ClientError, format_for
+from ..client import DEFAULT_URL, Client, Job, Status
+from ..formats import EXTENSIONS
+from .files import STDIO, output_format, say, write_output
 from .progress import is_terminal, make_progress, stage_label
 
-__all__ = ["register"]
-
-FINAL = ("successful", "failed", "dismissed")
-#: Seconds between two looks at a job's status.
-POLL = 0.25
+__all__ = ["connect", "connection_flags", "mesh_flags", "read_json", "register", "shared_inputs"]
 
 
-def _connection_flags(p: argparse.ArgumentParser) -> None:
+def connection_flags(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--url",
         default=os.environ.get("EVOMESH_URL", DEFAULT_URL),
@@ -33,7 +30,11 @@ def _connection_flags(p: argparse.ArgumentParser) -> None:
     p.add_argument("--api-key", default=None, help="API key (default $EVOMESH_API_KEY)")
 
 
-def _mesh_flags(p: argparse.ArgumentParser) -> None:
+def connect(args: argparse.Namespace) -> Client:
+    return Client(args.url, args.api_key)
+
+
+def mesh_flags(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("mesh inputs (the service's defaults when left out)")
     g.add_argument("--size", type=float, help="target edge length (default: the h property)")
     g.add_argument("--growth", type=float)
@@ -51,6 +52,23 @@ def _mesh_flags(p: argparse.ArgumentParser) -> None:
     )
 
 
+def _output_flags(p: argparse.ArgumentParser, what: str) -> None:
+    p.add_argument(
+        "-o",
+        "--output",
+        help=f"write {what} here ('-': standard output); the extension picks the format: "
+        + " ".join(EXTENSIONS),
+    )
+    p.add_argument("--format", help="the result format whatever the file name (json, png...)")
+    p.add_argument(
+        "--option",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="a picture option, e.g. --option color=min_angle (repeatable)",
+    )
+
+
 def register(sub: Any) -> None:
     s = sub.add_parser(
         "submit",
@@ -59,36 +77,30 @@ def register(sub: Any) -> None:
         "optionally wait for it and download its result.",
     )
     s.add_argument("region", help="GeoJSON or JSON file ('-' for standard input)")
-    _connection_flags(s)
+    connection_flags(s)
     s.add_argument("--wait", action="store_true", help="follow the job until it ends")
-    s.add_argument(
-        "-o",
-        "--output",
-        help="write the result here (implies --wait); the extension picks the format: "
-        ".json .geojson .vtu .msh .svg .png",
-    )
-    _mesh_flags(s)
+    _output_flags(s, "the result (implies --wait)")
+    mesh_flags(s)
     s.set_defaults(handler=run_submit)
 
-    b = sub.add_parser(
-        "batch",
-        help="mesh many regions on a service, one job each",
-        description="Mesh every region of FILE_OR_DIR (each Feature of a FeatureCollection, "
-        "each .geojson/.json file of a folder) as one batch, and write each result to OUTDIR.",
+    r = sub.add_parser(
+        "results",
+        help="download a finished job's result",
+        description="Write the result of job JOB in the format of the output file's extension "
+        "(or --format).",
     )
-    b.add_argument("source", metavar="FILE_OR_DIR")
-    _connection_flags(b)
-    b.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="folder of results")
-    b.add_argument(
-        "--format",
-        default="json",
-        help="comma-separated result formats to write: json geojson vtu msh svg png",
-    )
-    _mesh_flags(b)
-    b.set_defaults(handler=run_batch)
+    r.add_argument("job", metavar="JOB")
+    connection_flags(r)
+    _output_flags(r, "the result")
+    r.set_defaults(handler=run_results)
+
+    d = sub.add_parser("dismiss", help="cancel jobs and forget their results")
+    d.add_argument("jobs", nargs="+", metavar="JOB")
+    connection_flags(d)
+    d.set_defaults(handler=run_dismiss)
 
     j = sub.add_parser("jobs", help="list a service's jobs, newest first")
-    _connection_flags(j)
+    connection_flags(j)
     j.add_argument("--status", action="append", help="only this status (repeatable)")
     j.add_argument("--limit", type=int, default=20, help="how many (default 20)")
     j.set_defaults(handler=run_jobs)
@@ -97,15 +109,16 @@ def register(sub: Any) -> None:
 # -- inputs ---------------------------------------------------------------------------------------
 
 
-def _read_json(path: str) -> Any:
+def read_json(path: str) -> Any:
+    """A JSON file (``-``: standard input); ValueError (one line, exit 2) when it is not."""
     try:
-        text = sys.stdin.read() if path == "-" else Path(path).read_text(encoding="utf-8")
+        text = sys.stdin.read() if path == STDIO else Path(path).read_text(encoding="utf-8")
     except OSError as exc:
-        raise ClientError(f"cannot read {path}: {exc.strerror or exc}", 2) from None
+        raise ValueError(f"cannot read {path}: {exc.strerror or exc}") from None
     try:
         return json.loads(text)
     except json.JSONDecodeError as exc:
-        raise ClientError(f"{path} is not JSON: {exc}", 2) from None
+        raise ValueError(f"{path} is not JSON: {exc}") from None
 
 
 def _set(inputs: dict[str, Any], dotted: str, value: Any) -> None:
@@ -115,7 +128,7 @@ def _set(inputs: dict[str, Any], dotted: str, value: Any) -> None:
     inputs[name] = value
 
 
-def _shared_inputs(args: argparse.Namespace) -> dict[str, Any]:
+def shared_inputs(args: argparse.Namespace) -> dict[str, Any]:
     """The mesh inputs given by flags (those left out are the service's defaults)."""
     inputs: dict[str, Any] = {}
     for name in ("size", "growth"):
@@ -132,7 +145,7 @@ def _shared_inputs(args: argparse.Namespace) -> dict[str, Any]:
     for item in args.extra:
         name, sep, raw = item.partition("=")
         if not sep or not name:
-            raise ClientError(f"--input wants NAME=JSON, got {item!r}", 2)
+            raise ValueError(f"--input wants NAME=JSON, got {item!r}")
         try:
             value = json.loads(raw)
         except json.JSONDecodeError:
@@ -141,7 +154,18 @@ def _shared_inputs(args: argparse.Namespace) -> dict[str, Any]:
     return inputs
 
 
-def _summary_line(doc: dict[str, Any]) -> str:
+def _options(items: list[str]) -> dict[str, str]:
+    out = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        if not sep or not name:
+            raise ValueError(f"--option wants NAME=VALUE, got {item!r}")
+        out[name.strip()] = value
+    return out
+
+
+def summary_line(doc: dict[str, Any]) -> str:
+    """A mesh document in one line: its size and worst figures."""
     s = doc.get("summary", {}).get("smoothed") or doc.get("summary", {}).get("mesh") or {}
     if not s:
         return f"{len(doc.get('triangles', [])):,} triangles"
@@ -151,204 +175,79 @@ def _summary_line(doc: dict[str, Any]) -> str:
     )
 
 
-# -- submit ---------------------------------------------------------------------------------------
+# -- submit and results ---------------------------------------------------------------------------
 
 
-def _follow(api: Api, job_id: str) -> dict[str, Any]:
-    """Poll a job until it ends: a bar on a terminal, a line per stage otherwise."""
+def _stage(status: Status) -> str:
+    return "accepted" if status.status == "accepted" else status.message
+
+
+def follow(job: Job) -> Status:
+    """Wait for a job: a bar on a terminal, a line per stage otherwise; JobFailed if it fails."""
     if is_terminal():
         with make_progress(transient=True) as bar:
-            task = bar.add_task(f"job {job_id[:8]}: queued", total=100)
-            while True:
-                status = api.job(job_id)
-                bar.update(
-                    task,
-                    completed=status["progress"],
-                    description=f"job {job_id[:8]}: {stage_label(_stage(status))}",
-                )
-                if status["status"] in FINAL:
-                    return status
-                time.sleep(POLL)
-    last = None
-    while True:
-        status = api.job(job_id)
-        stage = _stage(status)
-        if stage != last and status["status"] not in FINAL:
-            print(f"job {job_id}: {stage_label(stage)} {status['progress']}%", file=sys.stderr)
-            last = stage
-        if status["status"] in FINAL:
-            return status
-        time.sleep(POLL)
+            task = bar.add_task(f"job {job.id[:8]}: queued", total=100)
+
+            def show(s: Status) -> None:
+                label = f"job {job.id[:8]}: {stage_label(_stage(s))}"
+                bar.update(task, completed=s.progress, description=label)
+
+            return job.wait(progress=show)
+    last: list[str] = []
+
+    def line(s: Status) -> None:
+        if not s.done and _stage(s) not in last[-1:]:
+            print(f"job {job.id}: {stage_label(_stage(s))} {s.progress}%", file=sys.stderr)
+            last.append(_stage(s))
+
+    return job.wait(progress=line)
 
 
-def _stage(status: dict[str, Any]) -> str:
-    return "accepted" if status["status"] == "accepted" else str(status.get("message") or "")
-
-
-def _finished(status: dict[str, Any]) -> None:
-    if status["status"] != "successful":
-        what = "was dismissed" if status["status"] == "dismissed" else "failed"
-        reason = f": {status['message']}" if status.get("message") else ""
-        raise ClientError(f"job {status['jobID']} {what}{reason}")
+def _download(job: Job, args: argparse.Namespace) -> None:
+    fmt = output_format(args.output, args.format)
+    data = job.result(fmt.name, **_options(args.option))
+    write_output(data, args.output)
+    what = summary_line(json.loads(data)) if fmt.name == "json" else f"{len(data):,} bytes"
+    say(f"job {job.id}: {what} -> {args.output}", args.output)
 
 
 def run_submit(args: argparse.Namespace) -> int:
-    fmt = format_for(args.output) if args.output else None  # a bad extension fails up front
-    region = _read_json(args.region)
-    inputs = {**_shared_inputs(args), "boundary": region}
-    with Api(args.url, args.api_key) as api:
-        status = api.execute("mesh", inputs)
-        job_id = status["jobID"]
+    if args.output:
+        output_format(args.output, args.format)  # a bad extension fails before anything is sent
+    region = read_json(args.region)
+    with connect(args) as client:
+        job = client.mesh(region, **shared_inputs(args))
         if not (args.wait or args.output):
-            print(job_id)
+            print(job.id)
             return 0
-        print(f"job {job_id} submitted to {api.url}", file=sys.stderr)
+        print(f"job {job.id} submitted to {client.url}", file=sys.stderr)
         try:
-            status = _follow(api, job_id)
+            follow(job)
         except KeyboardInterrupt:
-            print(f"\nthe job goes on; see: evomesh jobs --url {api.url}", file=sys.stderr)
+            print(f"\nthe job goes on; see: evomesh jobs --url {client.url}", file=sys.stderr)
             raise
-        _finished(status)
         if args.output:
-            assert fmt is not None
-            data = api.result(job_id, fmt)
-            Path(args.output).write_bytes(data)
-            what = _summary_line(json.loads(data)) if fmt == "json" else f"{len(data):,} bytes"
-            print(f"job {job_id}: {what} -> {args.output}")
+            _download(job, args)
         else:
-            print(f"job {job_id}: successful")
+            print(f"job {job.id}: successful")
     return 0
 
 
-# -- batch ----------------------------------------------------------------------------------------
-
-
-def _regions(source: Path) -> list[tuple[str, Any]]:
-    """(name, region) of every region under ``source``: each Feature of a FeatureCollection,
-    each other JSON document whole; named after their file (and the feature's name)."""
-    if source.is_dir():
-        files = sorted(p for p in source.iterdir() if p.suffix.lower() in (".geojson", ".json"))
-        if not files:
-            raise ClientError(f"no .geojson or .json files in {source}", 2)
-    elif source.exists():
-        files = [source]
-    else:
-        raise ClientError(f"{source} does not exist", 2)
-    out: list[tuple[str, Any]] = []
-    for path in files:
-        doc = _read_json(str(path))
-        if isinstance(doc, dict) and doc.get("type") == "FeatureCollection":
-            for i, feature in enumerate(doc.get("features") or []):
-                props = (feature or {}).get("properties") or {}
-                name = props.get("name") or feature.get("id") or f"{path.stem}-{i + 1}"
-                out.append((str(name), feature))
-        else:
-            out.append((path.stem, doc))
-    names: dict[str, int] = {}
-    unique = []
-    for name, region in out:  # results must not overwrite each other
-        safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in name) or "region"
-        names[safe] = names.get(safe, 0) + 1
-        unique.append((safe if names[safe] == 1 else f"{safe}-{names[safe]}", region))
-    return unique
-
-
-class _BatchView:
-    """How a batch's progress is shown: an overall bar on a terminal, lines otherwise."""
-
-    def __init__(self, total: int) -> None:
-        self.total = total
-        self.bar = make_progress() if is_terminal() else None
-        self.task: Any = None
-        self.last = ""
-
-    def __enter__(self) -> _BatchView:
-        if self.bar is not None:
-            self.bar.start()
-            self.task = self.bar.add_task("batch", total=self.total)
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        if self.bar is not None:
-            self.bar.stop()
-
-    def update(self, doc: dict[str, Any]) -> None:
-        counts = doc["counts"]
-        done = counts["successful"] + counts["failed"] + counts["dismissed"]
-        text = f"{done}/{self.total} done, {counts['running']} running, {counts['failed']} failed"
-        if self.bar is not None:
-            # Each running job counts by its own progress, so the bar moves within long jobs.
-            share = doc["progress"] / 100 * self.total
-            self.bar.update(self.task, completed=share, description=f"batch: {text}")
-        elif text != self.last:
-            print(f"batch {doc['batchID']}: {text}", file=sys.stderr)
-        self.last = text
-
-    def say(self, line: str) -> None:
-        if self.bar is not None:
-            self.bar.console.print(line, highlight=False)
-        else:
-            print(line)
-
-
-def run_batch(args: argparse.Namespace) -> int:
-    formats = [f.strip() for f in args.format.split(",") if f.strip()]
-    for f in formats:
-        format_for(f"result.{f}")  # fails on an unknown format before anything is sent
-    regions = _regions(Path(args.source))
-    out = Path(args.output)
-    out.mkdir(parents=True, exist_ok=True)
-    body = {
-        "process": "mesh",
-        "inputs": _shared_inputs(args),
-        "requests": [{"inputs": {"boundary": region}} for _, region in regions],
-    }
-    with Api(args.url, args.api_key) as api:
-        batch = api.batch(body)
-        names = {job["jobID"]: name for job, (name, _) in zip(batch["jobs"], regions, strict=True)}
-        print(f"batch {batch['batchID']}: {len(regions)} jobs on {api.url}", file=sys.stderr)
-        written: set[str] = set()
-        failed: list[str] = []
-        with _BatchView(len(regions)) as view:
-            while True:
-                doc = api.batch_status(batch["batchID"])
-                view.update(doc)
-                for job in doc["jobs"]:
-                    job_id, status = job["jobID"], job["status"]
-                    if status not in FINAL or job_id in written:
-                        continue
-                    written.add(job_id)
-                    name = names[job_id]
-                    if status == "successful":
-                        view.say(_save(api, job_id, name, out, formats))
-                    else:
-                        failed.append(name)
-                        view.say(f"{name}: {_why(api, job_id, status)}")
-                if doc["status"] in FINAL and len(written) == len(regions):
-                    break
-                time.sleep(POLL * 2)
-    ok = len(regions) - len(failed)
-    print(f"{ok} of {len(regions)} regions meshed -> {out}", file=sys.stderr)
-    if failed:
-        raise ClientError(f"{len(failed)} failed: {', '.join(failed)}")
+def run_results(args: argparse.Namespace) -> int:
+    if args.output is None:
+        args.output = STDIO
+    output_format(args.output, args.format)
+    with connect(args) as client:
+        _download(client.job(args.job), args)
     return 0
 
 
-def _save(api: Api, job_id: str, name: str, out: Path, formats: list[str]) -> str:
-    paths, line = [], ""
-    for f in formats:
-        data = api.result(job_id, f)
-        path = out / f"{name}.{f}"
-        path.write_bytes(data)
-        paths.append(path.name)
-        if f == "json":
-            line = _summary_line(json.loads(data))
-    return f"{name}: {line + ' ' if line else ''}-> {', '.join(paths)}"
-
-
-def _why(api: Api, job_id: str, status: str) -> str:
-    message = api.job(job_id).get("message") or ""
-    return f"{status}{': ' + message if message else ''}"
+def run_dismiss(args: argparse.Namespace) -> int:
+    with connect(args) as client:
+        for job_id in args.jobs:
+            status = client.job(job_id).dismiss()
+            print(f"job {status.job_id}: {status.status}")
+    return 0
 
 
 # -- jobs -----------------------------------------------------------------------------------------
@@ -357,11 +256,11 @@ _COLOURS = {"successful": "green", "failed": "red", "running": "cyan", "dismisse
 
 
 def run_jobs(args: argparse.Namespace) -> int:
-    params: dict[str, Any] = {"limit": args.limit}
-    if args.status:
-        params["status"] = args.status
-    with Api(args.url, args.api_key) as api:
-        doc = api.jobs(**params)
+    with connect(args) as client:
+        params: dict[str, Any] = {"limit": args.limit}
+        if args.status:
+            params["status"] = args.status
+        doc = client.get_json("/jobs", **params)
     rows: list[tuple[str, ...]] = [
         (
             str(job["jobID"]),

@@ -13,8 +13,10 @@ import numpy as np
 import engine
 from engine import EngineError, PipelineParams, SizingParams, SmoothingParams
 
-from ..document import CELL_FIELDS, mesh_from_document, result_document
+from ..document import cell_data, mesh_from_document, result_document
+from ..formats import EXTENSIONS, FORMATS, StoredResult
 from ..geojson import BoundaryInputError, parse_region
+from .files import output_format, read_mesh, say, write_output
 from .progress import StageBar
 
 #: Errors that are the user's, printed on one line with exit code 2.
@@ -76,6 +78,28 @@ def _add_fitness_flags(p: argparse.ArgumentParser) -> None:
     p.add_argument("--beta", type=float, default=d.beta, help="weight of the aspect term")
 
 
+def _add_mesh_input(p: argparse.ArgumentParser) -> None:
+    readable = [f.name for f in FORMATS.values() if f.reader is not None]
+    p.add_argument(
+        "mesh",
+        help=f"a mesh with points and triangles: {' | '.join(readable)} by its extension "
+        "('-' for a JSON document on standard input)",
+    )
+    p.add_argument("--input-format", choices=readable, help="read MESH in this format")
+
+
+def _add_output_flags(p: argparse.ArgumentParser) -> None:
+    writable = [f.name for f in FORMATS.values() if f.writer is not None]
+    p.add_argument(
+        "-o",
+        "--output",
+        required=True,
+        help=f"output file, its extension picks the format: {' '.join(EXTENSIONS)} "
+        "('-': standard output, JSON unless --format says otherwise)",
+    )
+    p.add_argument("--format", choices=writable, help="write in this format whatever the name")
+
+
 def register(sub: Any) -> None:
     p = sub.add_parser("mesh", help="mesh a region (GeoJSON or {outer, holes} JSON)")
     p.add_argument("region", help="GeoJSON or JSON file ('-' for standard input)")
@@ -85,17 +109,17 @@ def register(sub: Any) -> None:
     p.add_argument("--size-max", type=_positive(float))
     p.add_argument("--wgs84", action="store_true", help="coordinates are lon/lat")
     _add_smoothing_flags(p, "--smooth")
-    p.add_argument("-o", "--output", required=True, help="output file: .json, .png or .svg")
+    _add_output_flags(p)
     p.set_defaults(handler=run_mesh)
 
-    s = sub.add_parser("smooth", help="swap and smooth an existing mesh document")
-    s.add_argument("mesh", help="mesh JSON with points and triangles")
+    s = sub.add_parser("smooth", help="swap and smooth an existing mesh")
+    _add_mesh_input(s)
     _add_smoothing_flags(s, "--method")
-    s.add_argument("-o", "--output", required=True)
+    _add_output_flags(s)
     s.set_defaults(handler=run_smooth)
 
-    q = sub.add_parser("quality", help="print the quality summary of a mesh document")
-    q.add_argument("mesh")
+    q = sub.add_parser("quality", help="print the quality summary of a mesh")
+    _add_mesh_input(q)
     q.add_argument("--json", action="store_true", help="print the whole document")
     _add_fitness_flags(q)
     q.set_defaults(handler=run_quality)
@@ -123,20 +147,13 @@ def _smoothing(args: argparse.Namespace) -> SmoothingParams:
     )
 
 
-def _write(doc: dict[str, Any], path: str) -> None:
-    out = Path(path)
-    suffix = out.suffix.lower()
-    if suffix == ".json":
-        out.write_text(json.dumps(doc))
-    elif suffix in (".png", ".svg"):  # a picture, coloured by quality
-        from ..render import render_picture
-
-        out.write_bytes(render_picture(doc, "png" if suffix == ".png" else "svg"))
-    else:
-        raise ValueError(f"unsupported output format {out.suffix!r}; use .json, .png or .svg")
+def _write(doc: dict[str, Any], args: argparse.Namespace) -> None:
+    fmt = output_format(args.output, args.format)
+    write_output(fmt.render(StoredResult(doc=doc), {}), args.output)
 
 
 def run_mesh(args: argparse.Namespace) -> int:
+    output_format(args.output, args.format)  # a bad name fails before the meshing
     parsed = parse_region(_read_json(args.region), wgs84=args.wgs84)
     size = args.size if args.size is not None else parsed.properties.get("h")
     if size is None:
@@ -153,44 +170,47 @@ def run_mesh(args: argparse.Namespace) -> int:
         doc = result_document(result, parsed.to_lonlat)
         doc["summary"]["parameters"]["seed"] = args.seed
         progress("write", 0.0)
-        _write(doc, args.output)
+        _write(doc, args)
     s = result.smoothed.summary
-    print(
+    say(
         f"{s['count']} triangles, {s['points']} points, min angle {s['min_angle']['min']:.1f} deg, "
-        f"min quality {s['quality']['min']:.3f} -> {args.output}"
+        f"min quality {s['quality']['min']:.3f} -> {args.output}",
+        args.output,
     )
     return 0
 
 
 def run_smooth(args: argparse.Namespace) -> int:
-    mesh = mesh_from_document(_read_json(args.mesh))
+    output_format(args.output, args.format)
+    mesh = mesh_from_document(read_mesh(args.mesh, args.input_format))
     result = engine.smooth_mesh(
         mesh, _smoothing(args), swap=not args.no_swap, rng=np.random.default_rng(args.seed)
     )
     doc = result_document(result)
     doc["summary"]["parameters"]["seed"] = args.seed
-    _write(doc, args.output)
+    _write(doc, args)
     a, b = result.initial.summary, result.smoothed.summary
-    print(
+    angles = f"{a['min_angle']['min']:.1f} -> {b['min_angle']['min']:.1f} deg"
+    say(
         f"min quality {a['quality']['min']:.3f} -> {b['quality']['min']:.3f}, "
-        f"min angle {a['min_angle']['min']:.1f} -> {b['min_angle']['min']:.1f} deg -> {args.output}"
+        f"min angle {angles} -> {args.output}",
+        args.output,
     )
     return 0
 
 
 def run_quality(args: argparse.Namespace) -> int:
-    mesh = mesh_from_document(_read_json(args.mesh))
+    mesh = mesh_from_document(read_mesh(args.mesh, args.input_format))
     fitness = SmoothingParams(fitness=args.fitness, alpha=args.alpha, beta=args.beta)
     snap = engine.assess_mesh(mesh, fitness)
     if args.json:
-        cells = {k: getattr(snap.quality, k).tolist() for k in CELL_FIELDS}
-        doc = {"summary": snap.summary, "cell_data": cells}
+        doc = {"summary": snap.summary, "cell_data": cell_data(snap)}
         print(json.dumps(doc | {"point_data": {"fitness": snap.fitness.tolist()}}))
         return 0
     s = snap.summary
     print(f"triangles      {s['count']}")
     print(f"points         {s['points']}")
-    for key in ("quality", "radius_ratio", "min_angle", "max_angle"):
+    for key in engine.METRICS:
         v = s[key]
         print(f"{key:14s} min {v['min']:.4f}  p5 {v['p5']:.4f}  mean {v['mean']:.4f}")
     print(f"below 30 deg   {100 * s['share_below_30deg']:.2f}%")

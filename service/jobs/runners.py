@@ -18,7 +18,7 @@ import orjson
 import engine
 from engine import EngineError, PipelineParams, SizingParams, SmoothingParams
 
-from ..document import CELL_FIELDS, mesh_from_document, result_document
+from ..document import cell_data, mesh_from_document, result_document
 from ..geojson import BoundaryInputError, parse_region
 from .backend import ProgressCallback, TaskError
 
@@ -151,7 +151,7 @@ def quality(
             "fitness": snap.fitness.tolist(),
             "boundary": snap.mesh.boundary_nodes.astype(int).tolist(),
         },
-        "cell_data": {name: getattr(snap.quality, name).tolist() for name in CELL_FIELDS},
+        "cell_data": cell_data(snap),
         "summary": {"mesh": snap.summary, "parameters": {"fitness": params.fitness}},
     }
     figures = {

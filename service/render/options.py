@@ -7,12 +7,14 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
+
+import engine
 
 __all__ = ["COLORMAP", "METRICS", "Metric", "PictureError", "PictureOptions", "color_range"]
 
@@ -43,17 +45,32 @@ class Metric:
     step: float  #: the bad end of an automatic range is rounded to a multiple of this
 
 
+def _metrics() -> dict[str, Metric]:
+    """Triangle quality first (the default), node fitness next, then every other metric of
+    the engine's registry: a metric registered there can colour a picture."""
+    cells = [
+        Metric(m.name, m.label, "cell", m.ideal, m.worst, 10.0 if m.unit == "deg" else 0.1)
+        for m in engine.METRICS.values()
+    ]
+    fitness = Metric("fitness", "node fitness", "point", 1.0, 0.0, 0.1)
+    return {m.name: m for m in (cells[0], fitness, *cells[1:])}
+
+
+class _Metrics(Mapping[str, Metric]):
+    """A live view of :func:`_metrics`, so a metric registered after import is offered too."""
+
+    def __getitem__(self, name: str) -> Metric:
+        return _metrics()[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(_metrics())
+
+    def __len__(self) -> int:
+        return len(engine.METRICS) + 1
+
+
 #: Metrics by ``color`` name: the document's ``cell_data`` fields and node fitness.
-METRICS: dict[str, Metric] = {
-    m.name: m
-    for m in (
-        Metric("quality", "triangle quality (1 = equilateral)", "cell", 1.0, 0.0, 0.1),
-        Metric("fitness", "node fitness", "point", 1.0, 0.0, 0.1),
-        Metric("radius_ratio", "radius ratio 2r/R (1 = equilateral)", "cell", 1.0, 0.0, 0.1),
-        Metric("min_angle", "smallest angle of the triangle (degrees)", "cell", 60.0, 0.0, 10.0),
-        Metric("max_angle", "largest angle of the triangle (degrees)", "cell", 60.0, 180.0, 10.0),
-    )
-}
+METRICS: Mapping[str, Metric] = _Metrics()
 
 
 @dataclass(frozen=True)

@@ -199,3 +199,43 @@ def test_errors_are_one_line_with_a_non_zero_status(server: Server, tmp_path: Pa
     proc = evomesh("submit", str(tmp_path / "missing.geojson"), "--url", server.url)
     assert proc.returncode == 2
     assert "cannot read" in _one_line_error(proc)
+
+
+def test_results_and_dismiss(server: Server, tmp_path: Path) -> None:
+    square = str(DATA / "cases" / "unit_square.geojson")
+    proc = evomesh("submit", square, "--url", server.url, "--smooth", "none", "--size", "0.2")
+    job_id = proc.stdout.strip()
+    assert server.wait(job_id)["status"] == "successful"
+
+    out = tmp_path / "sq.msh"
+    proc = evomesh("results", job_id, "--url", server.url, "-o", str(out))
+    assert proc.returncode == 0, proc.stderr
+    assert f"job {job_id}: " in proc.stdout
+    assert f"-> {out}" in proc.stdout
+    doc = json.loads(evomesh("results", job_id, "--url", server.url, "-o", "-").stdout)
+    quality = evomesh("quality", str(out), "--json")  # what was downloaded reads back
+    assert json.loads(quality.stdout)["summary"]["count"] == len(doc["triangles"])
+
+    options = ["--format", "png", "--option", "width=300", "--option", "height=200"]
+    exe = str(Path(sys.executable).parent / "evomesh")
+    png = subprocess.run(
+        [exe, "results", job_id, "--url", server.url, *options, "-o", "-"],
+        capture_output=True,
+        timeout=300,
+        check=True,
+    )
+    assert Image.open(io.BytesIO(png.stdout)).size == (300, 200)
+    proc = evomesh("results", job_id, "--url", server.url, "-o", "x.png", "--option", "color=pink")
+    assert proc.returncode == 2
+    assert "unknown color 'pink'" in _one_line_error(proc)  # the service's own words
+
+    proc = evomesh("dismiss", job_id, "--url", server.url)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == f"job {job_id}: dismissed"
+    proc = evomesh("results", job_id, "--url", server.url, "-o", str(tmp_path / "gone.json"))
+    assert proc.returncode == 2
+    assert "the job was dismissed; it has no results" in _one_line_error(proc)
+    assert not (tmp_path / "gone.json").exists()
+    proc = evomesh("dismiss", "no-such-job", "--url", server.url)
+    assert proc.returncode == 2
+    assert "Not Found" in _one_line_error(proc)
