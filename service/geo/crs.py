@@ -187,7 +187,9 @@ class Projection:
     parts: tuple[Part, ...]  #: the rings to mesh, in the meshing plane (metres for lon/lat input)
     source_crs: CRS | None  #: the input's CRS (``None``: planar, no CRS)
     mesh_crs: CRS | None  #: the CRS of the meshing plane
-    tolerance: float  #: largest relative length error of the plane over the region (nan: unknown)
+    tolerance: (
+        float  #: largest relative length error of the plane over the region's box (nan: unknown)
+    )
     to_mesh: Transformer | None  #: source -> plane (``None``: the identity)
     to_source: Transformer | None  #: plane -> source
 
@@ -333,9 +335,16 @@ def _densify(ring: FloatArray, fwd: Any, max_len: float) -> FloatArray:
     return closed[start] + t[:, None] * (closed[start + 1] - closed[start])
 
 
-def _sample(parts: Sequence[Part], grid: int = 9) -> FloatArray:
-    """Every vertex and a grid over the bounding box (scale extremes may be interior)."""
+def _sample(parts: Sequence[Part], grid: int = 9, most: int = 2_000) -> FloatArray:
+    """A grid over the bounding box and at most ``most`` vertices, where the scale is checked.
+
+    The box's corners bound the error of the azimuthal projection (its scale grows with the
+    distance from the centre, and the farthest point of a lon/lat box is a corner) and UTM's
+    (the scale grows away from the central meridian); the vertices tighten it for other CRSs.
+    PROJ's scale factors cost ~10 us a point, hence the cap.
+    """
     pts = np.concatenate([r for o, hs in parts for r in (o, *hs)])
     (x0, y0), (x1, y1) = pts.min(axis=0), pts.max(axis=0)
     gx, gy = np.meshgrid(np.linspace(x0, x1, grid), np.linspace(y0, y1, grid))
-    return np.concatenate([pts, np.column_stack([gx.ravel(), gy.ravel()])])
+    step = max(1, len(pts) // most)
+    return np.concatenate([pts[::step], np.column_stack([gx.ravel(), gy.ravel()])])
