@@ -9,6 +9,7 @@ from __future__ import annotations
 from .antimeridian import crosses_antimeridian, normalize_longitudes, unwrap_parts
 from .crs import ALIASES, Projection, crs_name, legacy_crs, local_crs, project_rings, resolve_crs
 from .errors import GeoError, InvalidCoordinates, MissingDependency, RegionTooLarge, UnknownCRS
+from .files import RegionFile, RegionFileError, read_region_file
 
 __all__ = [
     "ALIASES",
@@ -16,6 +17,8 @@ __all__ = [
     "InvalidCoordinates",
     "MissingDependency",
     "Projection",
+    "RegionFile",
+    "RegionFileError",
     "RegionTooLarge",
     "UnknownCRS",
     "crosses_antimeridian",
@@ -24,6 +27,7 @@ __all__ = [
     "local_crs",
     "normalize_longitudes",
     "project_rings",
+    "read_region_file",
     "resolve_crs",
     "unwrap_parts",
 ]

@@ -11,7 +11,7 @@ centred on it. Regions more than a hemisphere across are refused (:class:`Region
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -215,6 +215,43 @@ class Projection:
         out = np.column_stack([x, y])
         return normalize_longitudes(out) if self.geographic else out
 
+    def forward_path(
+        self, xy: ArrayLike, *, closed: bool = False, densify: float | None = None
+    ) -> FloatArray:
+        """A line (or, ``closed``, a ring) in the input CRS -> the meshing plane.
+
+        For lon/lat input the path is taken continuous across the antimeridian and, with
+        ``densify``, split evenly so its pieces (straight in lon/lat) are about that long in the
+        plane, as :func:`project_rings` does for rings. Use it for constraint lines and
+        refinement areas; :meth:`forward` maps loose points.
+
+        >>> p = project_rings([([[179, 0], [-179, 0], [-179, 1]], [])], "EPSG:4326")
+        >>> line = p.forward_path([[179.5, 0.5], [-179.5, 0.5]], densify=50_000.0)
+        >>> len(line), bool(np.ptp(line[:, 0]) < 120_000)
+        (4, True)
+        """
+        pts = np.array(xy, dtype=np.float64, ndmin=2)[:, :2]
+        if not self.geographic:
+            return self.forward(pts)
+        pts[:, 0] = np.unwrap(pts[:, 0], period=360.0)
+        if densify is not None:
+            pts = _densify(pts, self.forward, densify, closed=closed)
+        return self.forward(pts)
+
+    def describe(self) -> dict[str, Any]:
+        """The CRS facts a result document carries (JSON-ready).
+
+        >>> project_rings([([[14, 60], [16, 60], [16, 61]], [])], "wgs84").describe()["mesh"]
+        'EPSG:32633'
+        """
+        return {
+            "input": crs_name(self.source_crs) if self.source_crs else None,
+            "mesh": crs_name(self.mesh_crs) if self.mesh_crs else None,
+            "mesh_name": self.mesh_crs.name if self.mesh_crs else None,
+            "geographic": self.geographic,
+            "length_tolerance": None if math.isnan(self.tolerance) else self.tolerance,
+        }
+
 
 def project_rings(
     parts: Sequence[tuple[ArrayLike, Sequence[ArrayLike]]],
@@ -323,16 +360,20 @@ def _check_tolerance(tolerance: float, limit: float | None) -> None:
         )
 
 
-def _densify(ring: FloatArray, fwd: Any, max_len: float) -> FloatArray:
+def _densify(
+    path: FloatArray, fwd: Callable[[FloatArray], FloatArray], max_len: float, closed: bool = True
+) -> FloatArray:
+    """Split each segment of ``path`` evenly (in its own coordinates) into pieces of about
+    ``max_len`` in the plane ``fwd`` maps to; a ring stays open, a line keeps its last vertex."""
     if not (math.isfinite(max_len) and max_len > 0):
         raise ValueError(f"densify must be a positive length, got {max_len}")
-    closed = np.vstack([ring, ring[:1]])
-    xy = fwd(closed)
-    seg = np.hypot(*np.diff(xy, axis=0).T)
+    pts = np.vstack([path, path[:1]]) if closed else path
+    seg = np.hypot(*np.diff(fwd(pts), axis=0).T)
     n = np.maximum(1, np.ceil(seg / max_len)).astype(np.int64)
     start = np.repeat(np.arange(n.size), n)
     t = (np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)) / np.repeat(n, n)
-    return closed[start] + t[:, None] * (closed[start + 1] - closed[start])
+    out = pts[start] + t[:, None] * (pts[start + 1] - pts[start])
+    return out if closed else np.vstack([out, pts[-1:]])
 
 
 def _sample(parts: Sequence[Part], grid: int = 9, most: int = 2_000) -> FloatArray:

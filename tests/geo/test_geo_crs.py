@@ -175,3 +175,43 @@ def test_projection_pickles_for_workers() -> None:
     again = pickle.loads(pickle.dumps(proj))
     np.testing.assert_allclose(again.forward([[15.0, 60.0]]), proj.forward([[15.0, 60.0]]))
     np.testing.assert_allclose(again.inverse([[1e5, 1e5]]), proj.inverse([[1e5, 1e5]]))
+
+
+def test_constraint_lines_across_the_antimeridian_stay_short() -> None:
+    proj = project_rings([(box(178, -2, -178, 2), [])], "EPSG:4326")
+    line = proj.forward_path([[179.0, 0.0], [-179.0, 0.0]], densify=10_000.0)
+    assert np.hypot(*(line[-1] - line[0])) == pytest.approx(222_639.0, rel=1e-3)  # 2 degrees
+    assert len(line) == 24  # 23 pieces of at most ~10 km, and both ends kept
+    np.testing.assert_allclose(
+        proj.inverse(line[[0, -1]]), [[179.0, 0.0], [-179.0, 0.0]], atol=1e-9
+    )
+    ring = proj.forward_path(box(179, -1, -179, 1), closed=True, densify=50_000.0)
+    assert len(ring) == 4 * 5  # each 2-degree side in 5 pieces; the ring stays open
+
+
+def test_projected_paths_are_not_densified() -> None:
+    proj = project_rings([(box(500_000, 6e6, 600_000, 6.1e6), [])], "EPSG:32633")
+    line = [[500_000.0, 6e6], [600_000.0, 6e6]]
+    np.testing.assert_array_equal(proj.forward_path(line, densify=1_000.0), line)
+
+
+def test_describe_for_the_result_document() -> None:
+    facts = project_rings([(box(10, 55, 20, 65), [])], "EPSG:4326").describe()
+    assert facts["input"] == "EPSG:4326"
+    assert facts["mesh"].startswith("PROJCRS[")  # a local projection has no code: its WKT
+    assert facts["mesh_name"].startswith("Azimuthal equidistant")
+    assert facts["geographic"] is True
+    assert 0.001 < facts["length_tolerance"] < 0.002
+    assert project_rings([([[0, 0], [1, 0], [0, 1]], [])], None).describe()["input"] is None
+
+
+def test_public_surface() -> None:
+    import service.geo
+
+    assert set(service.geo.__all__) == {
+        "ALIASES", "GeoError", "InvalidCoordinates", "MissingDependency", "Projection",
+        "RegionFile", "RegionFileError", "RegionTooLarge", "UnknownCRS", "crosses_antimeridian",
+        "crs_name", "legacy_crs", "local_crs", "normalize_longitudes", "project_rings",
+        "read_region_file", "resolve_crs", "unwrap_parts",
+    }  # fmt: skip
+    assert all(hasattr(service.geo, name) for name in service.geo.__all__)
