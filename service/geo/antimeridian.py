@@ -11,11 +11,19 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+import shapely
+import shapely.affinity
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import RegionTooLarge
 
-__all__ = ["Part", "crosses_antimeridian", "normalize_longitudes", "unwrap_parts"]
+__all__ = [
+    "Part",
+    "crosses_antimeridian",
+    "normalize_longitudes",
+    "split_at_antimeridian",
+    "unwrap_parts",
+]
 
 FloatArray = NDArray[np.float64]
 #: One polygon: its outer ring and its holes, each an (n, 2) array of lon/lat.
@@ -82,3 +90,41 @@ def normalize_longitudes(lonlat: ArrayLike) -> FloatArray:
     # round() leaves +-180 as they are (180/360 rounds to even, 0) and folds everything else in.
     xy[:, 0] -= 360.0 * np.round(xy[:, 0] / 360.0)
     return xy
+
+
+def split_at_antimeridian(outer: ArrayLike, holes: Sequence[ArrayLike] = ()) -> list[Part]:
+    """A lon/lat polygon as RFC 7946 wants it written: cut at 180 degrees when it crosses.
+
+    Returns the polygon when it does not cross, else its pieces east
+    and west of the antimeridian, each within [-180, 180]. For writing results (e.g. a mesh's
+    triangles as GeoJSON) whose points :meth:`~service.geo.crs.Projection.inverse` gave.
+
+    >>> pieces = split_at_antimeridian([[179, 0], [-179, 0], [-179, 1]])
+    >>> sorted((float(o[:, 0].min()), float(o[:, 0].max())) for o, _ in pieces)
+    [(-180.0, -179.0), (179.0, 180.0)]
+    """
+    ((ring, inner),) = unwrap_parts([(outer, holes)])
+    lon = np.concatenate([r[:, 0] for r in (ring, *inner)])
+    polygon = shapely.Polygon(ring, inner)
+    if lon.min() >= -180.0 and lon.max() <= 180.0:
+        return [_oriented(polygon)]
+    # The first ring's centre is within [-180, 180], so the polygon overhangs on one side only.
+    if lon.max() > 180.0:
+        windows = [((-540.0, 180.0), 0.0), ((180.0, 540.0), -360.0)]
+    else:
+        windows = [((-180.0, 540.0), 0.0), ((-540.0, -180.0), 360.0)]
+    pieces: list[Part] = []
+    for (lo, hi), move in windows:
+        clipped = shapely.clip_by_rect(polygon, lo, -90.0, hi, 90.0)
+        for piece in getattr(clipped, "geoms", [clipped]):
+            if not isinstance(piece, shapely.Polygon) or piece.is_empty or piece.area == 0:
+                continue
+            pieces.append(_oriented(shapely.affinity.translate(piece, move)))
+    return pieces
+
+
+def _oriented(polygon: shapely.Polygon) -> Part:
+    """Open rings, exterior counter-clockwise and holes clockwise (RFC 7946's right-hand rule)."""
+    polygon = shapely.orient_polygons(polygon)
+    holes = [np.asarray(h.coords)[:-1] for h in polygon.interiors]
+    return np.asarray(polygon.exterior.coords)[:-1], holes

@@ -8,7 +8,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import engine
+from engine.boundary import signed_area
 from service.geo import crosses_antimeridian, normalize_longitudes, project_rings, unwrap_parts
+from service.geo.antimeridian import split_at_antimeridian
 
 from .helpers import box, edges, geodesic_lengths, mesh_lonlat
 
@@ -83,3 +85,34 @@ def test_normalized_longitudes_are_in_range_and_the_same_meridian(lons: list[flo
     assert np.all(np.abs(out[:, 0]) <= 180.0)
     turns = (xy[:, 0] - out[:, 0]) / 360.0
     np.testing.assert_allclose(turns, np.round(turns), atol=1e-9)
+
+
+@settings(max_examples=80, deadline=None)
+@given(
+    lons=st.lists(st.floats(-3.0, 3.0), min_size=3, max_size=3),
+    lats=st.lists(st.floats(-60.0, 60.0), min_size=3, max_size=3),
+    centre=st.sampled_from([180.0, -180.0, 179.0, 0.0]),
+)
+def test_split_pieces_are_in_range_and_keep_the_area(
+    lons: list[float], lats: list[float], centre: float
+) -> None:
+    tri = np.column_stack([np.array(lons) + centre, lats])
+    area = abs(signed_area(tri))
+    if area < 1e-6:
+        return
+    pieces = split_at_antimeridian(normalize_longitudes(tri))
+    assert pieces
+    for outer, holes in pieces:
+        assert holes == []
+        assert np.all(np.abs(outer[:, 0]) <= 180.0 + 1e-9)
+        assert signed_area(outer) > 0  # counter-clockwise, RFC 7946's right-hand rule
+    assert sum(signed_area(o) for o, _ in pieces) == pytest.approx(area, rel=1e-9, abs=1e-9)
+
+
+def test_a_mesh_across_180_written_as_rfc7946_triangles() -> None:
+    proj, mesh = mesh_lonlat(box(179, -1, -179, 1), 20_000.0)
+    lonlat = proj.inverse(mesh.points)
+    pieces = [p for t in mesh.triangles for p in split_at_antimeridian(lonlat[t])]
+    assert len(pieces) > mesh.n_triangles  # the triangles over 180 come in two pieces
+    assert all(np.all(np.abs(o[:, 0]) <= 180.0) for o, _ in pieces)
+    assert sum(signed_area(o) for o, _ in pieces) == pytest.approx(4.0, rel=1e-3)  # 2 x 2 deg
