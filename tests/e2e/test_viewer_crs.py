@@ -9,12 +9,11 @@ from __future__ import annotations
 
 import json
 import re
-from collections.abc import Iterator
-from pathlib import Path
 
 import pytest
 
-from .browser import Browser, chromium_path
+from . import test_viewer as viewer_tests
+from .browser import Browser
 from .server import Server
 
 pytestmark = pytest.mark.e2e
@@ -26,20 +25,9 @@ ACROSS_180 = {
 }
 
 
-@pytest.fixture
-def server(tmp_path: Path) -> Iterator[Server]:
-    s = Server(tmp_path / "data", workers=1)
-    yield s
-    s.stop()
-
-
-@pytest.fixture
-def browser(tmp_path: Path) -> Iterator[Browser]:
-    assert chromium_path(), "chromium is not installed: `make test` installs it (APT_PACKAGES)"
-    with Browser(tmp_path / "profile", width=1280, height=800, timeout=60) as b:
-        yield b
-        errors = b.console_errors()
-        assert not errors, errors
+# The same real server and browser as the viewer's other tests.
+server = viewer_tests.server
+browser = viewer_tests.browser
 
 
 def _set(b: Browser, selector: str, value: str, event: str) -> None:
