@@ -344,7 +344,8 @@ def _check_latitudes(parts: Sequence[tuple[ArrayLike, Sequence[ArrayLike]]]) -> 
             bad = np.flatnonzero(~np.isfinite(xy).all(axis=1) | (np.abs(xy[:, 1]) > 90.0))
             if bad.size:
                 raise InvalidCoordinates(
-                    f"part {ip} ring {ir} vertex {bad[0]}: latitude must be within [-90, 90] "
+                    f"part {ip} ring {ir} vertex {bad[0]}: a position must be finite, its latitude "
+                    "within [-90, 90] "
                     "(positions are [longitude, latitude])",
                     part=ip,
                     ring=ir,

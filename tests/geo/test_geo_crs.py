@@ -215,3 +215,10 @@ def test_public_surface() -> None:
         "read_region_file", "resolve_crs", "unwrap_parts",
     }  # fmt: skip
     assert all(hasattr(service.geo, name) for name in service.geo.__all__)
+
+
+def test_a_non_finite_position_points_at_the_vertex() -> None:
+    ring = [[0.0, 0.0], [1.0, 0.0], [float("nan"), 1.0]]
+    with pytest.raises(InvalidCoordinates, match="finite") as info:
+        project_rings([(box(5, 5, 6, 6), [ring])], "OGC:CRS84")
+    assert (info.value.part, info.value.ring, info.value.vertex) == (0, 1, 2)
