@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 from pyproj import CRS, Proj, Transformer
 from pyproj.crs import ProjectedCRS
 from pyproj.crs.coordinate_operation import AzimuthalEquidistantConversion, UTMConversion
@@ -192,6 +192,9 @@ class Projection:
     )
     to_mesh: Transformer | None  #: source -> plane (``None``: the identity)
     to_source: Transformer | None  #: plane -> source
+    #: per part, per ring: the input vertex each vertex of ``parts`` starts from (it lies on the
+    #: input edge from there); ``None`` when the rings were not densified (the same numbering)
+    origins: tuple[tuple[NDArray[np.int64], ...], ...] | None = None
 
     @property
     def geographic(self) -> bool:
@@ -215,6 +218,15 @@ class Projection:
         out = np.column_stack([x, y])
         return normalize_longitudes(out) if self.geographic else out
 
+    def input_vertex(self, part: int, ring: int, vertex: int) -> int:
+        """The input vertex number of ``parts[part]``'s ring ``ring`` vertex ``vertex``.
+
+        For pointing an :class:`engine.InvalidBoundary` back into the input after densifying.
+        """
+        if self.origins is None:
+            return vertex
+        return int(self.origins[part][ring][vertex])
+
     def forward_path(
         self, xy: ArrayLike, *, closed: bool = False, densify: float | None = None
     ) -> FloatArray:
@@ -235,7 +247,7 @@ class Projection:
             return self.forward(pts)
         pts[:, 0] = np.unwrap(pts[:, 0], period=360.0)
         if densify is not None:
-            pts = _densify(pts, self.forward, densify, closed=closed)
+            pts = _densify(pts, self.forward, densify, closed=closed)[0]
         return self.forward(pts)
 
     def describe(self) -> dict[str, Any]:
@@ -327,14 +339,15 @@ def _project_geographic(
         x, y = to_mesh.transform(r[:, 0], r[:, 1], errcheck=True)
         return np.column_stack([x, y])
 
+    origins = None
     if densify is not None:
-        rings = [
-            (_densify(o, fwd, densify), [_densify(h, fwd, densify) for h in hs]) for o, hs in rings
-        ]
+        split = [[_densify(r, fwd, densify) for r in (o, *hs)] for o, hs in rings]
+        rings = [(d[0][0], [r for r, _ in d[1:]]) for d in split]
+        origins = tuple(tuple(start for _, start in d) for d in split)
     tolerance = scale_error(target, _sample(rings))
     _check_tolerance(tolerance, max_scale_error)
     planar = tuple((fwd(o), [fwd(h) for h in hs]) for o, hs in rings)
-    return Projection(planar, source, target, tolerance, to_mesh, to_source)
+    return Projection(planar, source, target, tolerance, to_mesh, to_source, origins)
 
 
 def _check_latitudes(parts: Sequence[tuple[ArrayLike, Sequence[ArrayLike]]]) -> None:
@@ -363,9 +376,10 @@ def _check_tolerance(tolerance: float, limit: float | None) -> None:
 
 def _densify(
     path: FloatArray, fwd: Callable[[FloatArray], FloatArray], max_len: float, closed: bool = True
-) -> FloatArray:
+) -> tuple[FloatArray, NDArray[np.int64]]:
     """Split each segment of ``path`` evenly (in its own coordinates) into pieces of about
-    ``max_len`` in the plane ``fwd`` maps to; a ring stays open, a line keeps its last vertex."""
+    ``max_len`` in the plane ``fwd`` maps to; a ring stays open, a line keeps its last vertex.
+    Also returns, for each new vertex, the index of the input vertex its segment starts at."""
     if not (math.isfinite(max_len) and max_len > 0):
         raise ValueError(f"densify must be a positive length, got {max_len}")
     pts = np.vstack([path, path[:1]]) if closed else path
@@ -374,7 +388,9 @@ def _densify(
     start = np.repeat(np.arange(n.size), n)
     t = (np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)) / np.repeat(n, n)
     out = pts[start] + t[:, None] * (pts[start + 1] - pts[start])
-    return out if closed else np.vstack([out, pts[-1:]])
+    if closed:
+        return out, start
+    return np.vstack([out, pts[-1:]]), np.append(start, len(pts) - 1)
 
 
 def _sample(parts: Sequence[Part], grid: int = 9, most: int = 2_000) -> FloatArray:

@@ -222,3 +222,17 @@ def test_a_non_finite_position_points_at_the_vertex() -> None:
     with pytest.raises(InvalidCoordinates, match="finite") as info:
         project_rings([(box(5, 5, 6, 6), [ring])], "OGC:CRS84")
     assert (info.value.part, info.value.ring, info.value.vertex) == (0, 1, 2)
+
+
+def test_densified_vertices_point_back_at_the_input() -> None:
+    hole = box(14.5, 60.2, 15.5, 60.8)[::-1]
+    proj = project_rings([(box(14, 60, 16, 61), [hole])], "EPSG:4326", densify=10_000.0)
+    outer, (inner,) = proj.parts[0]
+    assert len(outer) > 4
+    assert len(inner) > 4
+    # The third input corner (16, 61) is where the third input edge starts.
+    corner = int(np.argmin(np.hypot(*(proj.inverse(outer) - [16.0, 61.0]).T)))
+    assert proj.input_vertex(0, 0, corner) == 2
+    assert proj.input_vertex(0, 0, corner - 1) == 1  # the last piece of the edge before it
+    assert proj.input_vertex(0, 1, len(inner) - 1) == 3
+    assert project_rings([(box(14, 60, 16, 61), [])], "EPSG:4326").input_vertex(0, 0, 3) == 3
