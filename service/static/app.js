@@ -4,6 +4,9 @@
 import { ApiError, api, apiKey, setApiKey } from "./api.js";
 import { drawColorBar, drawHistogram, histogram } from "./charts.js";
 import { DrawTool } from "./draw.js";
+import {
+  LonLatDisplay, SQUARE_METRES_PER_UNIT, crsChoices, crsOf, forDisplay, isGeographic, partsForDisplay,
+} from "./geo.js";
 import { FINAL, JobList, stageLabel, watchJob } from "./jobs.js";
 import { METRICS, colorRange, meshesOf } from "./meshdata.js";
 import { ParamsForm } from "./params.js";
@@ -14,8 +17,9 @@ import { MeshView } from "./view.js";
 const $ = (id) => document.getElementById(id);
 
 const state = {
-  region: null,        // {text, parsed, stats, object}
+  region: null,        // {text, parsed, stats, object, display}
   regionText: null,    // the text last read
+  regionCrs: "",       // the CRS it was read in
   sizeTouched: false,  // the user typed a size: stop suggesting one
   job: null,           // the job shown: {id, doc, meshes}
   watcher: null,
@@ -60,8 +64,12 @@ function setStatus(status) {
 function readRegion() {
   const area = $("region-text");
   const text = area.value.trim();
-  if (text === state.regionText) return; // unchanged (keeps an error's marker)
+  const crs = $("crs").value.trim();
+  // Unchanged text and CRS: nothing to do (keeps an error's marker).
+  if (text === state.regionText && crs === state.regionCrs) return;
   state.regionText = text;
+  state.regionCrs = crs;
+  showCrsUnits();
   view.setMarker(null);
   if (!text) {
     state.region = null;
@@ -75,14 +83,29 @@ function readRegion() {
   try {
     const object = JSON.parse(text);
     const parsed = parseRegion(object);
-    const stats = regionStats(parsed);
-    state.region = { text, object, parsed, stats };
+    const legacy = object && object.crs && object.crs.properties && object.crs.properties.name;
+    if (legacy && !crs) {
+      // A pre-RFC 7946 file names its CRS: take it (readRegion runs again with it).
+      $("crs").value = legacy;
+      state.regionText = null;
+      readRegion();
+      return;
+    }
+    const points = parsed.parts.flat(2);
+    setCrsChoices(points);
+    // Lon/lat is drawn true to shape and measured in metres (what the service meshes in).
+    const display = isGeographic(crs) ? LonLatDisplay.of(points) : null;
+    const parts = display ? partsForDisplay(parsed.parts, display) : parsed.parts;
+    const stats = regionStats({ parts });
+    if (display) stats.area *= SQUARE_METRES_PER_UNIT;
+    state.region = { text, object, parsed, stats, display };
     area.classList.remove("invalid");
     const h = parsed.properties && parsed.properties.h;
+    const areaText = display ? `${(stats.area / 1e6).toPrecision(4)} km²` : stats.area.toPrecision(4);
     $("region-status").textContent =
       `${parsed.kind} · ${stats.rings} ring${stats.rings > 1 ? "s" : ""} · ${stats.vertices} vertices · ` +
-      `area ${stats.area.toPrecision(4)}` + (h ? ` · h ${h}` : "");
-    view.setRegion(parsed.parts);
+      `area ${areaText}` + (h ? ` · h ${h}` : "");
+    view.setRegion(parts);
     if (!state.job && !view.tool) view.fit(stats.box);
     $("empty").hidden = true;
     if (!state.sizeTouched) $("size").value = h || suggestSize(stats.area);
@@ -93,6 +116,25 @@ function readRegion() {
     view.setRegion(null);
   }
   updateSizeHint();
+}
+
+/** Offer the common CRS codes (and the region's UTM zone when it could be lon/lat). */
+function setCrsChoices(points) {
+  const list = $("crs-list");
+  const choices = crsChoices(points);
+  const key = choices.map((c) => c.value).join(" ");
+  if (list.dataset.key === key) return;
+  list.dataset.key = key;
+  list.replaceChildren(...choices.map((c) => new Option(c.label, c.value)));
+}
+
+/** Sizes are metres for lon/lat (the service meshes it in metres), else the CRS's own units. */
+function showCrsUnits() {
+  const crs = $("crs").value.trim();
+  $("size-unit").textContent = !crs
+    ? "target edge length"
+    : isGeographic(crs) ? "target edge length, metres" : "target edge length, CRS units";
+  document.body.dataset.crs = crs ? (isGeographic(crs) ? "geographic" : "projected") : "planar";
 }
 
 function updateSizeHint() {
@@ -138,6 +180,10 @@ function initRegion() {
     e.preventDefault();
     const file = e.dataTransfer.files[0];
     if (file) loadFile(file);
+  });
+  $("crs").addEventListener("change", () => {
+    state.sizeTouched = false; // degrees and metres differ: suggest again
+    readRegion();
   });
   $("size").addEventListener("input", () => {
     state.sizeTouched = true;
@@ -208,10 +254,7 @@ async function submit(e) {
     showError(new Error("Give a region first: pick an example, paste, upload or draw one."));
     return;
   }
-  const inputs = { boundary: state.region.object, ...params.values() };
-  const size = $("size").value;
-  // Empty: the service takes the region's h property (and says so when there is none).
-  if (size !== "") inputs.size = Number(size);
+  const inputs = meshInputs();
   for (const el of document.querySelectorAll(".invalid")) el.classList.remove("invalid");
   setBusy(true);
   showProgress({ status: "accepted", progress: 0, message: "" });
@@ -226,6 +269,15 @@ async function submit(e) {
   jobs.setCurrent(status.jobID);
   jobs.refresh();
   follow(status.jobID);
+}
+
+/** The mesh process's inputs from the region and the form. */
+function meshInputs() {
+  const inputs = { boundary: state.region.object, ...params.values() };
+  const size = $("size").value;
+  // Empty: the service takes the region's h property (and says so when there is none).
+  if (size !== "") inputs.size = Number(size);
+  return inputs;
 }
 
 /** Show a problem by the input it points at (and where on the region, if it says). */
@@ -289,11 +341,13 @@ async function openResult(id) {
     return;
   }
   const t1 = performance.now();
-  const meshes = meshesOf(doc);
+  // A lon/lat result is drawn like its region: true to shape, continuous across 180 degrees.
+  const display = isGeographic(crsOf(doc)) ? LonLatDisplay.of(doc.points) : null;
+  const meshes = meshesOf(display ? forDisplay(doc, display) : doc);
   const t2 = performance.now();
   state.timings.fetchMs = t1 - t0;
   state.timings.prepareMs = t2 - t1;
-  showJob({ id, doc, meshes });
+  showJob({ id, doc, meshes, display });
   view.render(true);
   state.timings.firstFrameMs = performance.now() - t2;
   document.body.dataset.rendered = id;
@@ -393,10 +447,17 @@ function showReadout({ detail }) {
     return;
   }
   const mesh = view.mesh;
-  let text = `x ${x.toPrecision(5)}  y ${y.toPrecision(5)}`;
+  const display = state.job ? state.job.display : state.region && state.region.display;
+  let text;
+  if (display) {
+    const [lon, lat] = display.inverse(x, y);
+    text = `lon ${lon.toFixed(5)}°  lat ${lat.toFixed(5)}°`;
+  } else {
+    text = `x ${x.toPrecision(5)}  y ${y.toPrecision(5)}`;
+  }
   if (mesh && t >= 0) {
     const q = mesh.cell.quality[t];
-    text = `triangle ${t.toLocaleString("en-US")} · quality ${q.toFixed(3)}`;
+    text = `${display ? `${text} · ` : ""}triangle ${t.toLocaleString("en-US")} · quality ${q.toFixed(3)}`;
     if (mesh.cell.min_angle) {
       text += ` · angles ${mesh.cell.min_angle[t].toFixed(1)}°–${mesh.cell.max_angle[t].toFixed(1)}°`;
     }
@@ -519,6 +580,6 @@ async function main() {
 }
 
 // For people poking at the page, and for the end-to-end test.
-window.evomesh = { state, view, openResult };
+window.evomesh = { state, view, openResult, meshInputs };
 
 main();

@@ -106,6 +106,9 @@ export class ParamsForm {
       smoothing[name] = field.input.tagName === "SELECT" ? raw : field.integer ? parseInt(raw, 10) : Number(raw);
     }
     const inputs = { swap: f.swap.checked, smoothing };
+    // Planar regions send no crs: the service meshes plain x, y as before.
+    const crs = f.crs ? f.crs.value.trim() : "";
+    if (crs) inputs.crs = crs;
     if (f.growth.value !== "") inputs.growth = Number(f.growth.value);
     return inputs;
   }
