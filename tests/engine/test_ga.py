@@ -11,14 +11,17 @@ from hypothesis import strategies as st
 from engine.colouring import independent_sets
 from engine.errors import Cancelled
 from engine.fitness import node_fitness
-from engine.ga import ga_smooth
+from engine.ga import POOR_LOSS, ga_smooth
 from engine.ga_kernels import accept_moves, crossover, mutate, roulette
 from engine.mesh import Mesh, validate_mesh
-from engine.params import SmoothingParams
+from engine.params import SELECTIONS, PipelineParams, SizingParams, SmoothingParams
+from engine.pipeline import mesh_then_smooth
+from engine.quality import shape_quality
 from engine.rng import base_seed, stream_key, stream_keys, uniform_pair
 from engine.star import MIN_QUALITY, all_fitness, build_stars, star_min_qualities
 
 from .random_meshes import meshes, random_mesh
+from .regions import Rings, region_of, regions
 
 SMALL = SmoothingParams(population=30, generations=15, max_sweeps=3)
 
@@ -209,7 +212,9 @@ def test_threshold_leaves_fit_nodes_alone() -> None:
     fit = node_fitness(mesh)
     inner = ~mesh.boundary_nodes
     threshold = float(np.median(fit[inner]))
-    params = SmoothingParams(population=30, generations=10, max_sweeps=1, threshold=threshold)
+    params = SmoothingParams(
+        population=30, generations=10, max_sweeps=1, threshold=threshold, selection="all"
+    )
     out = ga_smooth(mesh, params, np.random.default_rng(0), _quiet, _never)
     fit_nodes = fit >= threshold
     np.testing.assert_array_equal(out.points[fit_nodes], mesh.points[fit_nodes])
@@ -219,7 +224,9 @@ def test_threshold_leaves_fit_nodes_alone() -> None:
 
 def test_history_reports_each_sweep() -> None:
     mesh = random_mesh(8)
-    params = SmoothingParams(population=30, generations=15, max_sweeps=4, tolerance=0.0)
+    params = SmoothingParams(
+        population=30, generations=15, max_sweeps=4, tolerance=0.0, selection="all"
+    )
     out = ga_smooth(mesh, params, np.random.default_rng(0), _quiet, _never)
     assert 1 <= len(out.history) <= 4
     assert [h.sweep for h in out.history] == list(range(1, len(out.history) + 1))
@@ -232,6 +239,57 @@ def test_history_reports_each_sweep() -> None:
     final = node_fitness(mesh.with_points(out.points))[inner]
     assert out.history[-1].mean_fitness == pytest.approx(final.mean(), abs=1e-12)
     assert out.history[-1].min_fitness == pytest.approx(final.min(), abs=1e-12)
+
+
+# ---------------------------------------------------------------- selection
+
+
+def _poor_or_next_to_poor(mesh: Mesh, poor_quality: float) -> np.ndarray:
+    q = shape_quality(mesh.points, mesh.triangles)
+    poor_nodes = np.unique(mesh.triangles[q < poor_quality])
+    near = np.isin(mesh.triangles, poor_nodes).any(axis=1)
+    chosen = np.zeros(mesh.n_points, dtype=bool)
+    chosen[np.unique(mesh.triangles[near])] = True
+    return chosen & ~mesh.boundary_nodes
+
+
+@pytest.mark.parametrize("poor_quality", [0.5, 0.6, 0.7])
+def test_poor_selection_evolves_the_nodes_of_poor_triangles_and_their_neighbours(
+    poor_quality: float,
+) -> None:
+    mesh = random_mesh(4, 20, affine=False)
+    chosen = _poor_or_next_to_poor(mesh, poor_quality)
+    params = SmoothingParams(population=20, generations=5, max_sweeps=1, poor_quality=poor_quality)
+    out = ga_smooth(mesh, params, np.random.default_rng(0), _quiet, _never)
+    assert 0 < out.history[0].nodes_evolved == int(chosen.sum()) < int((~mesh.boundary_nodes).sum())
+    np.testing.assert_array_equal(out.points[~chosen], mesh.points[~chosen])
+    assert out.history[0].nodes_moved > 0
+
+
+def test_all_selection_evolves_every_interior_node_where_poor_evolves_none() -> None:
+    mesh = random_mesh(3, affine=True)
+    params = SmoothingParams(population=20, generations=5, max_sweeps=1, poor_quality=0.0)
+    none = ga_smooth(mesh, params, np.random.default_rng(0), _quiet, _never)
+    assert [h.nodes_evolved for h in none.history] == [0]
+    np.testing.assert_array_equal(none.points, mesh.points)
+    params = SmoothingParams(population=20, generations=5, max_sweeps=1, selection="all")
+    out = ga_smooth(mesh, params, np.random.default_rng(0), _quiet, _never)
+    assert out.history[0].nodes_evolved == int((~mesh.boundary_nodes).sum())
+
+
+@settings(max_examples=12, deadline=None)
+@given(case=regions())
+def test_poor_selection_keeps_the_worst_triangle_within_the_documented_loss_of_all(
+    case: tuple[Rings, float],
+) -> None:
+    rings, size = case
+    worst = {}
+    for selection in SELECTIONS:
+        smoothing = SmoothingParams(population=30, generations=15, selection=selection)
+        params = PipelineParams(SizingParams(size), smoothing=smoothing)
+        result = mesh_then_smooth(region_of(rings), params, np.random.default_rng(0))
+        worst[selection] = float(result.smoothed.quality.quality.min())
+    assert worst["poor"] >= worst["all"] - POOR_LOSS
 
 
 # ---------------------------------------------------------------- reproducibility and control

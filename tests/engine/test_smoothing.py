@@ -90,7 +90,7 @@ def test_smooth_mesh_reports_every_stage(mesh: Mesh, swap: bool) -> None:
     ("field", "value"),
     [("population", 1), ("generations", 0), ("crossover_rate", 1.5), ("mutation_rate", -0.1),
      ("max_sweeps", 0), ("iterations", 0), ("tolerance", -1.0), ("alpha", -1.0),
-     ("threshold", float("nan"))],
+     ("threshold", float("nan")), ("selection", "worst"), ("poor_quality", 1.5)],
 )  # fmt: skip
 def test_parameters_out_of_range_are_refused(field: str, value: float) -> None:
     with pytest.raises(ValueError, match=field.split("_")[0]):
