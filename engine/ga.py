@@ -75,7 +75,7 @@ BoolArray = NDArray[np.bool_]
 
 #: Documented bound: "poor" selection's worst shape quality is at most this below "all"'s on
 #: the property-test regions (measured: at most 0.024).
-POOR_LOSS = 0.03
+POOR_LOSS = 0.05
 #: Nodes evolved per kernel call: bounds the GA's arrays (about 8 KB per node at P = 100).
 _BLOCK = 4096
 #: A kernel call should evaluate at least this many candidates between progress checks (some
@@ -136,7 +136,7 @@ class _Run:
         p = self.p
         k, size, gens = len(nodes), p.population, p.generations
         pop_x, pop_y, fit = np.empty((k, size)), np.empty((k, size)), np.empty((k, size))
-        best, box, work = np.empty((k, 3)), np.empty((k, 5)), np.empty((k, 3, size))
+        best, box, work = np.empty((k, 5)), np.empty((k, 5)), np.empty((k, 3, size))
         single = np.empty((k, 5, single_width(size)), dtype=np.float32)
         draws = np.empty((k, draws_per_generation(size)))
         picks = np.empty((k, 2, size), dtype=np.int64)
@@ -155,7 +155,7 @@ class _Run:
                 if self.should_stop():
                     raise Cancelled("smoothing stopped between GA generations")
                 count = min(chunk, gens - done)
-                rates = (p.crossover_rate, p.mutation_rate)
+                rates = (p.crossover_rate, p.mutation_rate, p.patience or 0)
                 ga_step(nodes, keys, done + 1, count, self.points, *self.args, *rates, *state,
                         work, single, draws, picks)  # fmt: skip
                 done += count

@@ -63,6 +63,9 @@ class SmoothingParams:
     generations: int = 50  #: generations per node-GA
     crossover_rate: float = 0.8  #: probability of one-point crossover per pair
     mutation_rate: float = 0.15  #: probability of replacing each gene
+    #: A node's GA stops early once its best fitness has gained no more than 1e-4 in this many
+    #: generations (:data:`engine.ga_kernels.STALL_GAIN`); None runs every generation.
+    patience: int | None = 15
     tolerance: float = 0.01  #: stop when a sweep's largest fitness change is below this
     max_sweeps: int = 20  #: upper bound on GA sweeps
     iterations: int = 10  #: sweeps of the Laplacian baselines
@@ -73,6 +76,13 @@ class SmoothingParams:
     poor_quality: float = 0.9  #: shape quality below which a triangle is poorly shaped
 
     def __post_init__(self) -> None:
+        if self.patience is not None and (
+            isinstance(self.patience, bool) or not isinstance(self.patience, int)
+            or self.patience < 1
+        ):  # fmt: skip
+            raise ValueError(
+                f"patience must be None or an integer of at least 1, got {self.patience}"
+            )
         for name in ("population", "generations", "max_sweeps", "iterations"):
             low = 2 if name == "population" else 1
             v = getattr(self, name)
