@@ -24,7 +24,14 @@ from .sizing import build_size_field, estimate_triangles
 from .smoothing import SMOOTHERS, smooth_points
 from .swap import regularise_valence, swap_diagonals
 
-__all__ = ["assess_mesh", "mesh_region", "mesh_then_smooth", "smooth_mesh", "warmup"]
+__all__ = [
+    "assess_mesh",
+    "compiled_kernels",
+    "mesh_region",
+    "mesh_then_smooth",
+    "smooth_mesh",
+    "warmup",
+]
 
 
 def _no_progress(stage: str, fraction: float) -> None:
@@ -213,13 +220,40 @@ def smooth_mesh(
     return _improve(mesh, smoothing, swap, rng, progress, should_stop, timings, parameters, started)
 
 
-def warmup() -> None:
-    """Run every stage once on a tiny region so numba compiles (and caches) its kernels."""
+def compiled_kernels() -> dict[str, int]:
+    """Every numba kernel of the engine (``"engine.module.name"``) and how many compiled
+    signatures it holds in this process (kernels inlined into others hold none)."""
+    import importlib
+    import pkgutil
+
+    from numba.core.registry import CPUDispatcher
+
+    package = __name__.rpartition(".")[0]
+    out: dict[str, int] = {}
+    for info in pkgutil.iter_modules(importlib.import_module(package).__path__):
+        module = importlib.import_module(f"{package}.{info.name}")
+        for name, obj in vars(module).items():
+            if isinstance(obj, CPUDispatcher) and obj.py_func.__module__ == module.__name__:
+                out[f"{module.__name__}.{name}"] = len(obj.signatures)
+    return out
+
+
+def warmup() -> tuple[str, ...]:
+    """Run every stage and every smoother once on a tiny region so that numba compiles (or
+    loads from its cache) each kernel a job calls; returns the names of the engine's kernels
+    now compiled (see :func:`compiled_kernels`).
+
+    The GA runs with ``selection="all"``: the tiny mesh has no poor triangle, and with the
+    default selection the GA's kernels would be left for the first job to compile.
+    """
     from .boundary import make_region
 
     region = make_region(
         [([[0, 0], [1, 0], [1, 1], [0, 1]], [[[0.4, 0.4], [0.6, 0.4], [0.5, 0.6]]])]
     )
     for method in SMOOTHERS:
-        smoothing = SmoothingParams(method=method, population=8, generations=2, max_sweeps=1)
+        smoothing = SmoothingParams(
+            method=method, population=8, generations=2, max_sweeps=1, selection="all"
+        )
         mesh_then_smooth(region, PipelineParams(SizingParams(0.2), smoothing=smoothing))
+    return tuple(sorted(name for name, count in compiled_kernels().items() if count))
