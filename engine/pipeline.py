@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import asdict
 from typing import Any
 
@@ -25,13 +26,66 @@ from .smoothing import SMOOTHERS, smooth_points
 from .swap import regularise_valence, swap_diagonals
 
 __all__ = [
+    "STAGE_WEIGHTS",
+    "STAGE_WORDS",
     "assess_mesh",
     "compiled_kernels",
+    "job_progress",
     "mesh_region",
     "mesh_then_smooth",
     "smooth_mesh",
     "warmup",
 ]
+
+
+#: What each stage does, in words, for progress messages.
+STAGE_WORDS: dict[str, str] = {
+    "boundary": "dividing the boundary",
+    "mesh": "meshing (advancing front)",
+    "swap": "swapping diagonals",
+    "smooth": "smoothing",
+}
+#: Share of a job's time in each stage, in pipeline order, by smoothing selection: the means of
+#: ``timings`` over the public cases and plate_hole at h = 0.015 (benchmarks/smooth_bench.py;
+#: the assessments of the initial and swapped meshes count with "swap", the final one with
+#: "smooth").
+STAGE_WEIGHTS: dict[str, dict[str, float]] = {
+    "poor": {"boundary": 0.03, "mesh": 0.45, "swap": 0.17, "smooth": 0.35},
+    "all": {"boundary": 0.002, "mesh": 0.04, "swap": 0.014, "smooth": 0.944},
+}
+
+
+def job_progress(
+    report: Callable[[int, str], None], smoothing: SmoothingParams | None = None
+) -> ProgressFn:
+    """A ``progress(stage, fraction)`` for the pipeline that calls ``report(percent, words)``
+    for the whole job: each stage spans a share of 0-99 % in proportion to its measured cost
+    (:data:`STAGE_WEIGHTS`), the message names the stage (:data:`STAGE_WORDS`), and the
+    percentage never goes backwards (the smoother may run twice, see :func:`mesh_then_smooth`).
+
+    >>> seen = []
+    >>> progress = job_progress(lambda percent, words: seen.append((percent, words)))
+    >>> progress("mesh", 1.0); progress("smooth", 0.5); progress("swap", 1.0)
+    >>> seen
+    [(47, 'meshing (advancing front)'), (81, 'smoothing'), (81, 'swapping diagonals')]
+    """
+    smoothing = smoothing or SmoothingParams()
+    weights = STAGE_WEIGHTS[smoothing.selection if smoothing.method == "ga" else "poor"]
+    total = sum(weights.values())
+    start, at = {}, 0.0
+    for stage, weight in weights.items():
+        start[stage] = at
+        at += weight / total
+    reached = 0
+
+    def progress(stage: str, fraction: float) -> None:
+        nonlocal reached
+        share = weights.get(stage, 0.0) / total
+        done = start.get(stage, 0.0) + share * min(max(fraction, 0.0), 1.0)
+        reached = max(reached, int(99 * done))
+        report(reached, STAGE_WORDS.get(stage, stage))
+
+    return progress
 
 
 def _no_progress(stage: str, fraction: float) -> None:

@@ -8,6 +8,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from engine.boundary import make_region
 from engine.colouring import independent_sets
 from engine.errors import Cancelled, InvalidBoundary
 from engine.fitness import node_fitness
@@ -25,7 +26,7 @@ from engine.ga_kernels import (
 )
 from engine.mesh import Mesh, validate_mesh
 from engine.params import SELECTIONS, PipelineParams, SizingParams, SmoothingParams
-from engine.pipeline import mesh_then_smooth
+from engine.pipeline import STAGE_WORDS, job_progress, mesh_then_smooth
 from engine.quality import shape_quality
 from engine.rng import base_seed, stream_key, stream_keys, uniform_pair
 from engine.star import MIN_QUALITY, all_fitness, build_stars, star_min_qualities
@@ -349,6 +350,38 @@ def test_same_seed_gives_identical_bytes_on_one_and_two_threads(mesh: Mesh, seed
     finally:
         numba.set_num_threads(previous)
     assert one.tobytes() == two.tobytes()
+
+
+def test_progress_follows_the_node_gas_done_not_the_sweep_budget() -> None:
+    """Sweeps usually stop long before max_sweeps: progress must not count on them."""
+    mesh = random_mesh(6, 20)
+    fractions: list[float] = []
+    params = SmoothingParams(population=20, generations=10, selection="all", max_sweeps=20)
+    out = ga_smooth(
+        mesh, params, np.random.default_rng(0), lambda _, f: fractions.append(f), _never
+    )
+    assert fractions == sorted(fractions)
+    assert fractions[0] > 0.0
+    # The old estimate (sweep / max_sweeps) ended at len(history) / 20; work done is near all.
+    assert len(out.history) <= 10
+    assert fractions[-1] >= 0.8
+
+
+def test_job_progress_is_monotone_in_whole_percent_and_names_each_stage() -> None:
+    seen: list[tuple[int, str]] = []
+    region = make_region([([[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]], [])])
+    smoothing = SmoothingParams(population=20, generations=10, selection="all")
+    params = PipelineParams(SizingParams(0.1), smoothing=smoothing)
+    progress = job_progress(lambda percent, words: seen.append((percent, words)), smoothing)
+    mesh_then_smooth(region, params, np.random.default_rng(0), progress)
+    percents = [p for p, _ in seen]
+    assert percents == sorted(percents)
+    assert percents[-1] == 99
+    assert {w for _, w in seen} == set(STAGE_WORDS.values())
+    # With every node evolved, smoothing is most of the job's measured cost and percentage.
+    smooth = [p for p, w in seen if w == STAGE_WORDS["smooth"]]
+    assert smooth[0] < 10
+    assert len(set(smooth)) > 5
 
 
 def test_different_seeds_give_different_results() -> None:
