@@ -50,8 +50,8 @@ STAGE_WORDS: dict[str, str] = {
 #: the assessments of the initial and swapped meshes count with "swap", the final one with
 #: "smooth").
 STAGE_WEIGHTS: dict[str, dict[str, float]] = {
-    "poor": {"boundary": 0.03, "mesh": 0.45, "swap": 0.17, "smooth": 0.35},
-    "all": {"boundary": 0.002, "mesh": 0.04, "swap": 0.014, "smooth": 0.944},
+    "poor": {"boundary": 0.06, "mesh": 0.50, "swap": 0.24, "smooth": 0.20},
+    "all": {"boundary": 0.01, "mesh": 0.10, "swap": 0.07, "smooth": 0.82},
 }
 
 
@@ -67,7 +67,7 @@ def job_progress(
     >>> progress = job_progress(lambda percent, words: seen.append((percent, words)))
     >>> progress("mesh", 1.0); progress("smooth", 0.5); progress("swap", 1.0)
     >>> seen
-    [(47, 'meshing (advancing front)'), (81, 'smoothing'), (81, 'swapping diagonals')]
+    [(55, 'meshing (advancing front)'), (89, 'smoothing'), (89, 'swapping diagonals')]
     """
     smoothing = smoothing or SmoothingParams()
     weights = STAGE_WEIGHTS[smoothing.selection if smoothing.method == "ga" else "poor"]

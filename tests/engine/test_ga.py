@@ -380,7 +380,7 @@ def test_job_progress_is_monotone_in_whole_percent_and_names_each_stage() -> Non
     assert {w for _, w in seen} == set(STAGE_WORDS.values())
     # With every node evolved, smoothing is most of the job's measured cost and percentage.
     smooth = [p for p, w in seen if w == STAGE_WORDS["smooth"]]
-    assert smooth[0] < 10
+    assert smooth[-1] - smooth[0] >= 75
     assert len(set(smooth)) > 5
 
 
