@@ -186,8 +186,6 @@ def _improve(
     swapped_mesh = swap_diagonals(initial, relax=relax) if swap else initial
     progress("swap", 1.0)
     timings["swap"] = time.perf_counter() - t
-    # Unchanged meshes are not assessed again.
-    second = first if swapped_mesh is initial else assess_mesh(swapped_mesh, smoothing)
     t = time.perf_counter()
     if should_stop():
         raise Cancelled("stopped before smoothing")
@@ -201,13 +199,14 @@ def _improve(
         # swapped mesh as it was and keep the better of the two.
         outcome = smooth_points(regular, smoothing, rng, progress, should_stop)
         worst = _worst(outcome.points, regular.triangles)
-        if worst < float(second.quality.quality.min()):  # the swapped mesh's, assessed above
+        if worst < _worst(swapped_mesh.points, swapped_mesh.triangles):
             plain = smooth_points(swapped_mesh, smoothing, rng, progress, should_stop)
             if _worst(plain.points, swapped_mesh.triangles) > worst:
                 outcome, regular = plain, None
         if regular is not None:
             swapped_mesh = regular
-            second = assess_mesh(regular, smoothing)
+    # Assessed once, when it is known which mesh the smoother kept (unchanged: not again).
+    second = first if swapped_mesh is initial else assess_mesh(swapped_mesh, smoothing)
     progress("smooth", 1.0)
     timings["smooth"] = time.perf_counter() - t
     unmoved = np.array_equal(outcome.points, swapped_mesh.points)
