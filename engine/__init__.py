@@ -26,14 +26,7 @@ from .errors import (
 from .fitness import FITNESS, node_fitness
 from .mesh import Mesh, validate_mesh
 from .params import PipelineParams, SizingParams, SmoothingParams
-from .pipeline import (
-    assess_mesh,
-    job_progress,
-    mesh_region,
-    mesh_then_smooth,
-    smooth_mesh,
-    warmup,
-)
+from .pipeline import assess_mesh, mesh_region, mesh_then_smooth, smooth_mesh, warmup
 from .quality import METRICS, TriangleQuality, summarize, triangle_quality
 from .result import ProgressFn, Result, SmoothOutcome, Snapshot, StopFn, SweepStats
 from .sizing import estimate_triangles
@@ -64,7 +57,6 @@ __all__ = [
     "TriangleQuality",
     "assess_mesh",
     "estimate_triangles",
-    "job_progress",
     "make_region",
     "mesh_region",
     "mesh_then_smooth",
