@@ -21,6 +21,10 @@ The numpy functions in :data:`REFERENCE` state these definitions plainly; :data:
 :func:`node_fitness`, the reports and every smoother use) computes the same values with the numba
 kernels of :mod:`engine.star`, which agree with the reference to rounding (the tests hold them
 to 1e-12).
+
+Adding a fitness: a row in :data:`engine.star.FITNESS_KINDS`, its formula in
+:func:`engine.star.combine` (the one place the kernels dispatch on a fitness; the exact kernels
+and the GA's guide both call it), and its plain statement in :data:`REFERENCE`.
 """
 
 from __future__ import annotations
@@ -119,14 +123,9 @@ REFERENCE: dict[str, FitnessFn] = {
     "capped": capped_fitness,
 }
 
-#: The kernels' code of each fitness name.
-FITNESS_CODES: dict[str, int] = {
-    "angle": star.ANGLE,
-    "aspect": star.ASPECT,
-    "combined": star.COMBINED,
-    "worst": star.WORST,
-    "capped": star.CAPPED,
-}
+#: The kernels' code of each fitness name (:data:`engine.star.FITNESS_KINDS`, where a fitness
+#: is added).
+FITNESS_CODES: dict[str, int] = {name: code for code, (name, _) in enumerate(star.FITNESS_KINDS)}
 
 
 def fitness_code(name: str) -> int:

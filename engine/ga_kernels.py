@@ -20,19 +20,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .rng import uniform_pair
-from .star import (
-    ANGLE,
-    ASPECT,
-    CAP_MARGIN,
-    CAPPED,
-    COMBINED,
-    MIN_QUALITY,
-    WORST,
-    star_fitness,
-    star_min_quality,
-)
+from .star import MIN_QUALITY, NEEDS_ANGLE, combine, star_fitness, star_min_quality
 
 __all__ = [
+    "STALL_GAIN",
     "accept_moves",
     "crossover",
     "draws_per_generation",
@@ -50,6 +41,9 @@ UIntArray = NDArray[np.uint64]
 Float32Array = NDArray[np.float32]
 
 _F32 = np.float32
+#: A node's GA has converged when its best fitness rose by no more than this (a fitness unit is
+#: the whole [0, 1] range) in ``patience`` generations.
+STALL_GAIN = 1e-4
 #: Single-precision numbers per vector register the padding is for (AVX2; AVX-512 holds 16).
 _LANES = 8
 # Single-precision constants: a float64 constant would promote the whole loop to double.
@@ -114,7 +108,7 @@ def evaluate(
         i = c if c < n else 0  # padding repeats candidate 0
         X[c] = _F32((xs[i] - ox) * scale)
         Y[c] = _F32((ys[i] - oy) * scale)
-    need_angle = kind != ASPECT and kind != WORST
+    need_angle = NEEDS_ANGLE[kind]
     for j in range(j0, j1):
         ax, ay = _F32((points[opp_a[j], 0] - ox) * scale), _F32((points[opp_a[j], 1] - oy) * scale)
         bx, by = _F32((points[opp_b[j], 0] - ox) * scale), _F32((points[opp_b[j], 1] - oy) * scale)
@@ -156,22 +150,10 @@ def evaluate(
                 s_q[c] += q
                 worst[c] = worst[c] if q >= worst[c] else q
     k = max(j1 - j0, 1)
-    w = alpha / (alpha + beta)
     for c in range(n):
         angle = 1.0 - float(s_err[c]) * _ANGLE_SCALE / k
-        mean_q = float(s_q[c]) / k
         low = float(worst[c])
-        combined = w * angle + (1.0 - w) * mean_q
-        if kind == ANGLE:
-            f = angle
-        elif kind == ASPECT:
-            f = mean_q
-        elif kind == COMBINED:
-            f = combined
-        elif kind == CAPPED:
-            f = min(combined, low + CAP_MARGIN)
-        else:
-            f = low
+        f = combine(kind, angle, float(s_q[c]) / k, low, alpha, beta)
         out[c] = f if low > MIN_QUALITY and f > 0.0 else 0.0
 
 
@@ -242,6 +224,7 @@ def ga_init(
         evaluate(xs, ys, fit[s], single[s], box[s], j0, j1, points, opp_a, opp_b, kind, alpha, beta)
         b = np.argmax(fit[s])
         best[s, 0], best[s, 1], best[s, 2] = xs[b], ys[b], fit[s, b]
+        best[s, 3], best[s, 4] = fit[s, b], 0.0
 
 
 @numba.njit(cache=True, inline="always")
@@ -336,6 +319,7 @@ def ga_step(
     beta: float,
     crossover_rate: float,
     mutation_rate: float,
+    patience: int,
     pop_x: FloatArray,
     pop_y: FloatArray,
     fit: FloatArray,
@@ -350,7 +334,11 @@ def ga_step(
 
     Each generation: roulette-wheel selection (one draw per slot against the cumulative
     fitness), one-point crossover of pairs (with two genes: swap the y genes), uniform mutation
-    of each gene, then the best candidate so far replaces slot 0 (elitism). ``work`` (S, 3, P),
+    of each gene, then the best candidate so far replaces slot 0 (elitism). A node whose best
+    fitness has not risen by more than :data:`STALL_GAIN` in ``patience`` generations has
+    converged and skips the rest (``patience`` 0: never). ``best`` is (S, 5): position and
+    fitness of the best candidate, the best fitness at the last gain and the generations since.
+    ``work`` (S, 3, P),
     ``single`` (S, 5, P, single precision, for :func:`evaluate`), ``draws`` (S, D) and ``picks``
     (S, 2, P) are scratch; D is :func:`draws_per_generation`.
     """
@@ -366,6 +354,8 @@ def ga_step(
         cum, nx, ny = work[s, 0], work[s, 1], work[s, 2]
         pick, guide = picks[s, 0], picks[s, 1]
         for g in range(first, first + count):
+            if patience > 0 and best[s, 4] >= patience:
+                break  # converged: no gain above STALL_GAIN for `patience` generations
             # Pairs 0..P-1 of the stream seeded the first generation.
             base = np.uint64(size + (g - 1) * (per_gen // 2))
             for i in range(per_gen // 2):
@@ -380,6 +370,10 @@ def ga_step(
             b = np.argmax(f)
             if f[b] > best[s, 2]:
                 best[s, 0], best[s, 1], best[s, 2] = xs[b], ys[b], f[b]
+            if best[s, 2] > best[s, 3] + STALL_GAIN:
+                best[s, 3], best[s, 4] = best[s, 2], 0.0
+            else:
+                best[s, 4] += 1.0
 
 
 @numba.njit(cache=True)

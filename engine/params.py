@@ -6,7 +6,10 @@ import math
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
-__all__ = ["PipelineParams", "SizingParams", "SmoothingParams"]
+__all__ = ["SELECTIONS", "PipelineParams", "SizingParams", "SmoothingParams"]
+
+#: The GA's node selections (:mod:`engine.ga`): "poor" is the default, "all" the paper's.
+SELECTIONS = ("poor", "all")
 
 
 @dataclass(frozen=True)
@@ -60,12 +63,26 @@ class SmoothingParams:
     generations: int = 50  #: generations per node-GA
     crossover_rate: float = 0.8  #: probability of one-point crossover per pair
     mutation_rate: float = 0.15  #: probability of replacing each gene
+    #: A node's GA stops early once its best fitness has gained no more than 1e-4 in this many
+    #: generations (:data:`engine.ga_kernels.STALL_GAIN`); None runs every generation.
+    patience: int | None = 15
     tolerance: float = 0.01  #: stop when a sweep's largest fitness change is below this
     max_sweeps: int = 20  #: upper bound on GA sweeps
     iterations: int = 10  #: sweeps of the Laplacian baselines
     threshold: float | None = None  #: evolve only nodes whose fitness is below this
+    #: Which nodes the GA evolves: "poor" (nodes of a triangle with shape quality below
+    #: ``poor_quality``, see :mod:`engine.ga`) or "all" (every interior node).
+    selection: str = "poor"
+    poor_quality: float = 0.9  #: shape quality below which a triangle is poorly shaped
 
     def __post_init__(self) -> None:
+        if self.patience is not None and (
+            isinstance(self.patience, bool) or not isinstance(self.patience, int)
+            or self.patience < 1
+        ):  # fmt: skip
+            raise ValueError(
+                f"patience must be None or an integer of at least 1, got {self.patience}"
+            )
         for name in ("population", "generations", "max_sweeps", "iterations"):
             low = 2 if name == "population" else 1
             v = getattr(self, name)
@@ -85,6 +102,10 @@ class SmoothingParams:
             )
         if not (math.isfinite(self.tolerance) and self.tolerance >= 0):
             raise ValueError(f"tolerance must be a non-negative number, got {self.tolerance}")
+        if self.selection not in SELECTIONS:
+            raise ValueError(f"selection must be one of {list(SELECTIONS)}, got {self.selection!r}")
+        if not (math.isfinite(self.poor_quality) and 0.0 <= self.poor_quality <= 1.0):
+            raise ValueError(f"poor_quality must be within [0, 1], got {self.poor_quality}")
         if self.threshold is not None and not math.isfinite(self.threshold):
             raise ValueError(f"threshold must be a number, got {self.threshold}")
 

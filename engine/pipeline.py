@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import asdict
 from typing import Any
 
@@ -24,7 +25,67 @@ from .sizing import build_size_field, estimate_triangles
 from .smoothing import SMOOTHERS, smooth_points
 from .swap import regularise_valence, swap_diagonals
 
-__all__ = ["assess_mesh", "mesh_region", "mesh_then_smooth", "smooth_mesh", "warmup"]
+__all__ = [
+    "STAGE_WEIGHTS",
+    "STAGE_WORDS",
+    "assess_mesh",
+    "compiled_kernels",
+    "job_progress",
+    "mesh_region",
+    "mesh_then_smooth",
+    "smooth_mesh",
+    "warmup",
+]
+
+
+#: What each stage does, in words, for progress messages.
+STAGE_WORDS: dict[str, str] = {
+    "boundary": "dividing the boundary",
+    "mesh": "meshing (advancing front)",
+    "swap": "swapping diagonals",
+    "smooth": "smoothing",
+}
+#: Share of a job's time in each stage, in pipeline order, by smoothing selection: the means of
+#: ``timings`` over the public cases and plate_hole at h = 0.015 (benchmarks/smooth_bench.py;
+#: the assessments of the initial and swapped meshes count with "swap", the final one with
+#: "smooth").
+STAGE_WEIGHTS: dict[str, dict[str, float]] = {
+    "poor": {"boundary": 0.06, "mesh": 0.50, "swap": 0.24, "smooth": 0.20},
+    "all": {"boundary": 0.01, "mesh": 0.10, "swap": 0.07, "smooth": 0.82},
+}
+
+
+def job_progress(
+    report: Callable[[int, str], None], smoothing: SmoothingParams | None = None
+) -> ProgressFn:
+    """A ``progress(stage, fraction)`` for the pipeline that calls ``report(percent, words)``
+    for the whole job: each stage spans a share of 0-99 % in proportion to its measured cost
+    (:data:`STAGE_WEIGHTS`), the message names the stage (:data:`STAGE_WORDS`), and the
+    percentage never goes backwards (the smoother may run twice, see :func:`mesh_then_smooth`).
+
+    >>> seen = []
+    >>> progress = job_progress(lambda percent, words: seen.append((percent, words)))
+    >>> progress("mesh", 1.0); progress("smooth", 0.5); progress("swap", 1.0)
+    >>> seen
+    [(55, 'meshing (advancing front)'), (89, 'smoothing'), (89, 'swapping diagonals')]
+    """
+    smoothing = smoothing or SmoothingParams()
+    weights = STAGE_WEIGHTS[smoothing.selection if smoothing.method == "ga" else "poor"]
+    total = sum(weights.values())
+    start, at = {}, 0.0
+    for stage, weight in weights.items():
+        start[stage] = at
+        at += weight / total
+    reached = 0
+
+    def progress(stage: str, fraction: float) -> None:
+        nonlocal reached
+        share = weights.get(stage, 0.0) / total
+        done = start.get(stage, 0.0) + share * min(max(fraction, 0.0), 1.0)
+        reached = max(reached, int(99 * done))
+        report(reached, STAGE_WORDS.get(stage, stage))
+
+    return progress
 
 
 def _no_progress(stage: str, fraction: float) -> None:
@@ -125,8 +186,6 @@ def _improve(
     swapped_mesh = swap_diagonals(initial, relax=relax) if swap else initial
     progress("swap", 1.0)
     timings["swap"] = time.perf_counter() - t
-    # Unchanged meshes are not assessed again.
-    second = first if swapped_mesh is initial else assess_mesh(swapped_mesh, smoothing)
     t = time.perf_counter()
     if should_stop():
         raise Cancelled("stopped before smoothing")
@@ -140,13 +199,14 @@ def _improve(
         # swapped mesh as it was and keep the better of the two.
         outcome = smooth_points(regular, smoothing, rng, progress, should_stop)
         worst = _worst(outcome.points, regular.triangles)
-        if worst < float(second.quality.quality.min()):  # the swapped mesh's, assessed above
+        if worst < _worst(swapped_mesh.points, swapped_mesh.triangles):
             plain = smooth_points(swapped_mesh, smoothing, rng, progress, should_stop)
             if _worst(plain.points, swapped_mesh.triangles) > worst:
                 outcome, regular = plain, None
         if regular is not None:
             swapped_mesh = regular
-            second = assess_mesh(regular, smoothing)
+    # Assessed once, when it is known which mesh the smoother kept (unchanged: not again).
+    second = first if swapped_mesh is initial else assess_mesh(swapped_mesh, smoothing)
     progress("smooth", 1.0)
     timings["smooth"] = time.perf_counter() - t
     unmoved = np.array_equal(outcome.points, swapped_mesh.points)
@@ -213,13 +273,40 @@ def smooth_mesh(
     return _improve(mesh, smoothing, swap, rng, progress, should_stop, timings, parameters, started)
 
 
-def warmup() -> None:
-    """Run every stage once on a tiny region so numba compiles (and caches) its kernels."""
+def compiled_kernels() -> dict[str, int]:
+    """Every numba kernel of the engine (``"engine.module.name"``) and how many compiled
+    signatures it holds in this process (kernels inlined into others hold none)."""
+    import importlib
+    import pkgutil
+
+    from numba.core.registry import CPUDispatcher
+
+    package = __name__.rpartition(".")[0]
+    out: dict[str, int] = {}
+    for info in pkgutil.iter_modules(importlib.import_module(package).__path__):
+        module = importlib.import_module(f"{package}.{info.name}")
+        for name, obj in vars(module).items():
+            if isinstance(obj, CPUDispatcher) and obj.py_func.__module__ == module.__name__:
+                out[f"{module.__name__}.{name}"] = len(obj.signatures)
+    return out
+
+
+def warmup() -> tuple[str, ...]:
+    """Run every stage and every smoother once on a tiny region so that numba compiles (or
+    loads from its cache) each kernel a job calls; returns the names of the engine's kernels
+    now compiled (see :func:`compiled_kernels`).
+
+    The GA runs with ``selection="all"``: the tiny mesh has no poor triangle, and with the
+    default selection the GA's kernels would be left for the first job to compile.
+    """
     from .boundary import make_region
 
     region = make_region(
         [([[0, 0], [1, 0], [1, 1], [0, 1]], [[[0.4, 0.4], [0.6, 0.4], [0.5, 0.6]]])]
     )
     for method in SMOOTHERS:
-        smoothing = SmoothingParams(method=method, population=8, generations=2, max_sweeps=1)
+        smoothing = SmoothingParams(
+            method=method, population=8, generations=2, max_sweeps=1, selection="all"
+        )
         mesh_then_smooth(region, PipelineParams(SizingParams(0.2), smoothing=smoothing))
+    return tuple(sorted(name for name, count in compiled_kernels().items() if count))

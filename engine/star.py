@@ -29,11 +29,14 @@ __all__ = [
     "ASPECT",
     "CAPPED",
     "COMBINED",
+    "FITNESS_KINDS",
     "MIN_QUALITY",
+    "NEEDS_ANGLE",
     "WORST",
     "Stars",
     "all_fitness",
     "build_stars",
+    "combine",
     "mark_neighbours",
     "star_fitness",
     "star_min_qualities",
@@ -43,8 +46,22 @@ __all__ = [
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
-#: Fitness kind codes, the kernels' view of :data:`engine.fitness.FITNESS`.
-ANGLE, ASPECT, COMBINED, WORST, CAPPED = 0, 1, 2, 3, 4
+#: The fitness functions the kernels know, one row each: (name, whether it uses the angle
+#: term). A row's index is the fitness's code in the kernels and :func:`combine` is its
+#: formula. **To add a fitness**: add a row here, its branch in :func:`combine`, and its plain
+#: numpy statement to :data:`engine.fitness.REFERENCE` (the tests hold the kernels to it);
+#: every smoother, the reports and the service's choices follow from these.
+FITNESS_KINDS: tuple[tuple[str, bool], ...] = (
+    ("angle", True),
+    ("aspect", False),
+    ("combined", True),
+    ("worst", False),
+    ("capped", True),
+)
+#: Fitness kind codes (row indices of :data:`FITNESS_KINDS`).
+ANGLE, ASPECT, COMBINED, WORST, CAPPED = range(len(FITNESS_KINDS))
+#: Per code: whether the fitness uses the angle term (kernels skip the arctangents if not).
+NEEDS_ANGLE = tuple(uses for _, uses in FITNESS_KINDS)
 #: A move is admissible only when every triangle of the star keeps a shape quality above this: no
 #: inversion, and a margin from degeneracy so results always pass :func:`engine.validate_mesh`.
 MIN_QUALITY = 1e-6
@@ -120,6 +137,24 @@ def triangle_terms(
     return 1.0 - err / _MAX_ANGLE_ERROR, q
 
 
+@numba.njit(cache=True, inline="always")
+def combine(
+    kind: int, angle: float, mean_q: float, worst: float, alpha: float, beta: float
+) -> float:
+    """The one dispatch on the fitness code: fitness ``kind`` of a star from its mean angle
+    score, mean shape quality and worst shape quality (the star is admissible)."""
+    if kind == ANGLE:
+        return angle
+    if kind == ASPECT:
+        return mean_q
+    combined = (alpha * angle + beta * mean_q) / (alpha + beta)
+    if kind == COMBINED:
+        return combined
+    if kind == CAPPED:
+        return min(combined, worst + CAP_MARGIN)
+    return worst  # WORST
+
+
 @numba.njit(cache=True)
 def star_fitness(
     x: float,
@@ -149,16 +184,7 @@ def star_fitness(
         worst = min(worst, q)
     if count == 0 or inverted:
         return 0.0
-    if kind == ANGLE:
-        return s_angle / count
-    if kind == ASPECT:
-        return s_q / count
-    combined = (alpha * (s_angle / count) + beta * (s_q / count)) / (alpha + beta)
-    if kind == COMBINED:
-        return combined
-    if kind == CAPPED:
-        return min(combined, worst + CAP_MARGIN)
-    return worst
+    return combine(kind, s_angle / count, s_q / count, worst, alpha, beta)
 
 
 @numba.njit(cache=True)

@@ -9,7 +9,14 @@ from hypothesis import given, settings
 from engine.fitness import FITNESS, FITNESS_CODES, REFERENCE, fitness_code, node_fitness
 from engine.ga_kernels import evaluate, single_width
 from engine.mesh import Mesh
-from engine.star import MIN_QUALITY, build_stars, star_fitness, star_min_quality
+from engine.star import (
+    FITNESS_KINDS,
+    MIN_QUALITY,
+    build_stars,
+    combine,
+    star_fitness,
+    star_min_quality,
+)
 
 from .random_meshes import meshes, random_mesh
 
@@ -94,3 +101,15 @@ def test_ga_guide_fitness_is_the_exact_fitness_to_1e6(name: str, offset: float) 
                 assert got == 0.0
             elif worst > 2.0 * MIN_QUALITY:
                 assert got == pytest.approx(exact, abs=1e-6)
+
+
+def test_the_fitness_table_is_the_one_source_of_names_and_codes() -> None:
+    assert list(FITNESS_CODES) == [name for name, _ in FITNESS_KINDS]
+    assert sorted(FITNESS_CODES.values()) == list(range(len(FITNESS_KINDS)))
+    # combine() dispatches every code: each row's formula is a distinct function of its inputs
+    values = {combine(code, 0.9, 0.6, 0.5, 0.8, 0.2) for code in FITNESS_CODES.values()}
+    assert len(values) == len(FITNESS_KINDS)
+    for name, uses_angle in FITNESS_KINDS:
+        code = FITNESS_CODES[name]
+        moved = combine(code, 0.9, 0.6, 0.9, 0.8, 0.2) != combine(code, 0.95, 0.6, 0.9, 0.8, 0.2)
+        assert moved == uses_angle, name

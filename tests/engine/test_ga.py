@@ -5,22 +5,37 @@ from __future__ import annotations
 import numba
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from engine.boundary import make_region
 from engine.colouring import independent_sets
-from engine.errors import Cancelled
+from engine.errors import Cancelled, InvalidBoundary
 from engine.fitness import node_fitness
-from engine.ga import ga_smooth
-from engine.ga_kernels import accept_moves, crossover, mutate, roulette
+from engine.ga import POOR_LOSS, ga_smooth
+from engine.ga_kernels import (
+    STALL_GAIN,
+    accept_moves,
+    crossover,
+    draws_per_generation,
+    ga_init,
+    ga_step,
+    mutate,
+    roulette,
+    single_width,
+)
 from engine.mesh import Mesh, validate_mesh
-from engine.params import SmoothingParams
+from engine.params import SELECTIONS, PipelineParams, SizingParams, SmoothingParams
+from engine.pipeline import STAGE_WORDS, job_progress, mesh_then_smooth
+from engine.quality import shape_quality
 from engine.rng import base_seed, stream_key, stream_keys, uniform_pair
 from engine.star import MIN_QUALITY, all_fitness, build_stars, star_min_qualities
 
 from .random_meshes import meshes, random_mesh
+from .regions import Rings, region_of, regions
 
-SMALL = SmoothingParams(population=30, generations=15, max_sweeps=3)
+# patience 4 < generations: the early exit is part of what the determinism tests cover.
+SMALL = SmoothingParams(population=30, generations=15, max_sweeps=3, patience=4)
 
 
 def _quiet(stage: str, fraction: float) -> None:
@@ -147,6 +162,33 @@ def test_independent_sets_share_no_triangle_and_keep_the_order(mesh: Mesh, seed:
     assert order[0] in sets[0]
 
 
+def _hexagon_run(patience: int, generations: int = 50) -> np.ndarray:
+    """GA of the centre of a regular hexagon (already optimal); returns its ``best`` row."""
+    t = np.linspace(0.0, 2.0 * np.pi, 6, endpoint=False)
+    pts = np.r_[[[0.0, 0.0]], np.c_[np.cos(t), np.sin(t)]]
+    tri = np.array([[0, 1 + k, 1 + (k + 1) % 6] for k in range(6)])
+    s = build_stars(tri, 7)
+    nodes, size = np.array([0]), 20
+    keys = stream_keys(np.uint64(5), 1, nodes)
+    args = (s.ptr, s.opp_a, s.opp_b, 4, 0.8, 0.2)
+    state = (np.empty((1, size)), np.empty((1, size)), np.empty((1, size)), np.empty((1, 5)))
+    state += (np.empty((1, 5)),)
+    single = np.empty((1, 5, single_width(size)), dtype=np.float32)
+    ga_init(nodes, keys, pts, *args, *state, single)
+    scratch = (np.empty((1, 3, size)), single, np.empty((1, draws_per_generation(size))))
+    scratch += (np.empty((1, 2, size), dtype=np.int64),)
+    ga_step(nodes, keys, 1, generations, pts, *args, 0.8, 0.15, patience, *state, *scratch)
+    return state[3][0]
+
+
+def test_a_converged_node_stops_after_patience_generations_without_gain() -> None:
+    assert _hexagon_run(patience=0)[4] == 50  # never stops: 50 generations without gain
+    stopped = _hexagon_run(patience=6)
+    assert stopped[4] == 6
+    assert stopped[2] == pytest.approx(1.0, abs=1e-3)
+    assert stopped[3] >= stopped[2] - STALL_GAIN
+
+
 # ---------------------------------------------------------------- guarantees
 
 
@@ -209,7 +251,9 @@ def test_threshold_leaves_fit_nodes_alone() -> None:
     fit = node_fitness(mesh)
     inner = ~mesh.boundary_nodes
     threshold = float(np.median(fit[inner]))
-    params = SmoothingParams(population=30, generations=10, max_sweeps=1, threshold=threshold)
+    params = SmoothingParams(
+        population=30, generations=10, max_sweeps=1, threshold=threshold, selection="all"
+    )
     out = ga_smooth(mesh, params, np.random.default_rng(0), _quiet, _never)
     fit_nodes = fit >= threshold
     np.testing.assert_array_equal(out.points[fit_nodes], mesh.points[fit_nodes])
@@ -219,7 +263,9 @@ def test_threshold_leaves_fit_nodes_alone() -> None:
 
 def test_history_reports_each_sweep() -> None:
     mesh = random_mesh(8)
-    params = SmoothingParams(population=30, generations=15, max_sweeps=4, tolerance=0.0)
+    params = SmoothingParams(
+        population=30, generations=15, max_sweeps=4, tolerance=0.0, selection="all"
+    )
     out = ga_smooth(mesh, params, np.random.default_rng(0), _quiet, _never)
     assert 1 <= len(out.history) <= 4
     assert [h.sweep for h in out.history] == list(range(1, len(out.history) + 1))
@@ -232,6 +278,61 @@ def test_history_reports_each_sweep() -> None:
     final = node_fitness(mesh.with_points(out.points))[inner]
     assert out.history[-1].mean_fitness == pytest.approx(final.mean(), abs=1e-12)
     assert out.history[-1].min_fitness == pytest.approx(final.min(), abs=1e-12)
+
+
+# ---------------------------------------------------------------- selection
+
+
+def _poor_or_next_to_poor(mesh: Mesh, poor_quality: float) -> np.ndarray:
+    q = shape_quality(mesh.points, mesh.triangles)
+    poor_nodes = np.unique(mesh.triangles[q < poor_quality])
+    near = np.isin(mesh.triangles, poor_nodes).any(axis=1)
+    chosen = np.zeros(mesh.n_points, dtype=bool)
+    chosen[np.unique(mesh.triangles[near])] = True
+    return chosen & ~mesh.boundary_nodes
+
+
+@pytest.mark.parametrize("poor_quality", [0.5, 0.6, 0.7])
+def test_poor_selection_evolves_the_nodes_of_poor_triangles_and_their_neighbours(
+    poor_quality: float,
+) -> None:
+    mesh = random_mesh(4, 20, affine=False)
+    chosen = _poor_or_next_to_poor(mesh, poor_quality)
+    params = SmoothingParams(population=20, generations=5, max_sweeps=1, poor_quality=poor_quality)
+    out = ga_smooth(mesh, params, np.random.default_rng(0), _quiet, _never)
+    assert 0 < out.history[0].nodes_evolved == int(chosen.sum()) < int((~mesh.boundary_nodes).sum())
+    np.testing.assert_array_equal(out.points[~chosen], mesh.points[~chosen])
+    assert out.history[0].nodes_moved > 0
+
+
+def test_all_selection_evolves_every_interior_node_where_poor_evolves_none() -> None:
+    mesh = random_mesh(3, affine=True)
+    params = SmoothingParams(population=20, generations=5, max_sweeps=1, poor_quality=0.0)
+    none = ga_smooth(mesh, params, np.random.default_rng(0), _quiet, _never)
+    assert [h.nodes_evolved for h in none.history] == [0]
+    np.testing.assert_array_equal(none.points, mesh.points)
+    params = SmoothingParams(population=20, generations=5, max_sweeps=1, selection="all")
+    out = ga_smooth(mesh, params, np.random.default_rng(0), _quiet, _never)
+    assert out.history[0].nodes_evolved == int((~mesh.boundary_nodes).sum())
+
+
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(case=regions())
+def test_poor_selection_keeps_the_worst_triangle_within_the_documented_loss_of_all(
+    case: tuple[Rings, float],
+) -> None:
+    rings, size = case
+    try:
+        region = region_of(rings)
+    except InvalidBoundary:  # the strategy can draw a degenerate star; nothing to mesh
+        return
+    worst = {}
+    for selection in SELECTIONS:
+        smoothing = SmoothingParams(population=30, generations=15, selection=selection)
+        params = PipelineParams(SizingParams(size), smoothing=smoothing)
+        result = mesh_then_smooth(region, params, np.random.default_rng(0))
+        worst[selection] = float(result.smoothed.quality.quality.min())
+    assert worst["poor"] >= worst["all"] - POOR_LOSS
 
 
 # ---------------------------------------------------------------- reproducibility and control
@@ -249,6 +350,38 @@ def test_same_seed_gives_identical_bytes_on_one_and_two_threads(mesh: Mesh, seed
     finally:
         numba.set_num_threads(previous)
     assert one.tobytes() == two.tobytes()
+
+
+def test_progress_follows_the_node_gas_done_not_the_sweep_budget() -> None:
+    """Sweeps usually stop long before max_sweeps: progress must not count on them."""
+    mesh = random_mesh(6, 20)
+    fractions: list[float] = []
+    params = SmoothingParams(population=20, generations=10, selection="all", max_sweeps=20)
+    out = ga_smooth(
+        mesh, params, np.random.default_rng(0), lambda _, f: fractions.append(f), _never
+    )
+    assert fractions == sorted(fractions)
+    assert fractions[0] > 0.0
+    # The old estimate (sweep / max_sweeps) ended at len(history) / 20; work done is near all.
+    assert len(out.history) <= 10
+    assert fractions[-1] >= 0.8
+
+
+def test_job_progress_is_monotone_in_whole_percent_and_names_each_stage() -> None:
+    seen: list[tuple[int, str]] = []
+    region = make_region([([[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]], [])])
+    smoothing = SmoothingParams(population=20, generations=10, selection="all")
+    params = PipelineParams(SizingParams(0.1), smoothing=smoothing)
+    progress = job_progress(lambda percent, words: seen.append((percent, words)), smoothing)
+    mesh_then_smooth(region, params, np.random.default_rng(0), progress)
+    percents = [p for p, _ in seen]
+    assert percents == sorted(percents)
+    assert percents[-1] == 99
+    assert {w for _, w in seen} == set(STAGE_WORDS.values())
+    # With every node evolved, smoothing is most of the job's measured cost and percentage.
+    smooth = [p for p, w in seen if w == STAGE_WORDS["smooth"]]
+    assert smooth[-1] - smooth[0] >= 75
+    assert len(set(smooth)) > 5
 
 
 def test_different_seeds_give_different_results() -> None:

@@ -9,7 +9,8 @@ from hypothesis import strategies as st
 
 import engine
 from engine.mesh import Mesh, validate_mesh
-from engine.params import SmoothingParams
+from engine.params import SELECTIONS, SmoothingParams
+from engine.pipeline import compiled_kernels
 from engine.smoothing import SMOOTHERS, smooth_points
 from engine.star import build_stars, star_min_qualities
 
@@ -90,7 +91,7 @@ def test_smooth_mesh_reports_every_stage(mesh: Mesh, swap: bool) -> None:
     ("field", "value"),
     [("population", 1), ("generations", 0), ("crossover_rate", 1.5), ("mutation_rate", -0.1),
      ("max_sweeps", 0), ("iterations", 0), ("tolerance", -1.0), ("alpha", -1.0),
-     ("threshold", float("nan"))],
+     ("threshold", float("nan")), ("selection", "worst"), ("poor_quality", 1.5)],
 )  # fmt: skip
 def test_parameters_out_of_range_are_refused(field: str, value: float) -> None:
     with pytest.raises(ValueError, match=field.split("_")[0]):
@@ -102,5 +103,18 @@ def test_zero_weights_are_refused() -> None:
         SmoothingParams(alpha=0.0, beta=0.0)
 
 
-def test_warmup_compiles_every_smoother() -> None:
-    engine.warmup()
+def test_warmup_compiles_every_kernel_a_job_calls() -> None:
+    compiled = engine.warmup()
+    counts = compiled_kernels()
+    assert compiled == tuple(sorted(name for name, n in counts.items() if n))
+    ga = {f"engine.ga_kernels.{k}" for k in ("ga_init", "ga_step", "accept_moves")}
+    assert ga | {"engine.front._run", "engine.star.all_fitness"} <= set(compiled)
+    # Jobs on another region, with every smoother and selection, compile nothing more.
+    region = engine.make_region([([[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]], [])])
+    for method in SMOOTHERS:
+        for selection in SELECTIONS:
+            smoothing = SmoothingParams(method=method, population=10, generations=3,
+                                        max_sweeps=2, selection=selection)  # fmt: skip
+            params = engine.PipelineParams(engine.SizingParams(0.15), smoothing=smoothing)
+            engine.mesh_then_smooth(region, params, np.random.default_rng(1))
+    assert compiled_kernels() == counts
