@@ -14,6 +14,7 @@ from typing import Any
 
 from fastapi import FastAPI
 from fastapi.middleware.cors import CORSMiddleware
+from starlette.middleware.trustedhost import TrustedHostMiddleware
 
 from . import problems
 from .jobs.backend import ComputeBackend, make_backend
@@ -84,6 +85,10 @@ def create_app(
             expose_headers=["Location"],
         )
     app.add_middleware(BodyLimit, max_bytes=settings.max_body_bytes)
+    if settings.trusted_hosts:
+        # Links and Location headers are built from the Host header unless public_url is set:
+        # a Host the operator did not list is refused, never echoed.
+        app.add_middleware(TrustedHostMiddleware, allowed_hosts=settings.trusted_hosts)
     _document_problems(app)
     return app
 

@@ -96,6 +96,7 @@ class BackendStats:
     alive: int  #: running worker processes
     busy: int  #: tasks running
     queued: int  #: tasks waiting for a worker
+    ready: int = -1  #: workers warmed up and taking tasks (-1: not known to the backend)
 
 
 class ComputeBackend(Protocol):
