@@ -24,6 +24,7 @@ from .jobs.store import JobStore
 from .metrics import Metrics
 from .middleware import BodyLimit
 from .processes import PROCESSES, Process
+from .render.pool import RenderPool
 from .routers import batches, jobs, landing, viewer
 from .routers.processes import build_router
 from .settings import Settings
@@ -70,6 +71,7 @@ def create_app(
     app.state.settings = settings
     app.state.metrics = Metrics()
     app.state.manager = None
+    app.state.render_pool = RenderPool(settings.render_workers, settings.render_cache_bytes)
     problems.install(app)
     app.include_router(landing.router)
     app.include_router(build_router(procs))

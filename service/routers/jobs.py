@@ -8,13 +8,17 @@ from typing import Annotated
 from fastapi import APIRouter, Depends, Query, Request, Response
 from fastapi.responses import JSONResponse
 
-from ..deps import ManagerDep, OwnerDep, StoreDep, require_api_key
+from ..deps import ManagerDep, OwnerDep, SettingsDep, StoreDep, require_api_key
 from ..formats import FORMATS, StoredResult
 from ..jobs.runners import unpack
 from ..jobs.store import JobRecord, JobStatus, JobStore
 from ..problems import Problem
+from ..render import PictureError, RenderPool, picture_options
 from ..schemas import JobList, StatusInfo
 from ..views import base_url, link, status_info
+
+#: Formats that are pictures (their options are checked, and bounded, before loading).
+PICTURES = frozenset({"png", "svg"})
 
 router = APIRouter(prefix="/jobs", tags=["Jobs"], dependencies=[Depends(require_api_key)])
 
@@ -113,6 +117,7 @@ async def get_results(
     request: Request,
     store: StoreDep,
     owner: OwnerDep,
+    settings: SettingsDep,
     f: Annotated[
         str, Query(description=f"result format: {' | '.join(FORMATS)}", max_length=32)
     ] = "json",
@@ -125,13 +130,24 @@ async def get_results(
             kind="invalid-parameter",
             parameter="f",
         )
+    if fmt.name in PICTURES:  # checked before anything is loaded
+        try:
+            picture_options(request.query_params, settings.max_picture_pixels)
+        except PictureError as exc:
+            raise Problem(
+                400, exc.message, kind="invalid-parameter", parameter=exc.parameter
+            ) from None
     record = _job(store, jobId, owner)
     if record.status is not JobStatus.successful:
         raise _not_ready(record)
+    headers = {"Content-Disposition": f'inline; filename="{jobId}{fmt.extension}"'}
+    pool: RenderPool = request.app.state.render_pool
+    key = (jobId, fmt.name, tuple(sorted(request.query_params.multi_items())))
+    if fmt.name != "json" and (cached := pool.cached(key)) is not None:
+        return Response(cached, media_type=fmt.media_type, headers=headers)
     blob = await asyncio.to_thread(store.result, jobId)
     if blob is None:  # dismissed or purged a moment ago
         raise _not_ready(_job(store, jobId, owner))
-    headers = {"Content-Disposition": f'inline; filename="{jobId}{fmt.extension}"'}
     if fmt.name == "json" and "deflate" in request.headers.get("accept-encoding", ""):
         # Stored as zlib, which is HTTP's "deflate": send it as it is.
         headers["Content-Encoding"] = "deflate"
@@ -140,5 +156,8 @@ async def get_results(
     def render() -> bytes:
         return fmt.render(StoredResult(unpack(blob)), request.query_params)
 
-    body = await asyncio.to_thread(render)
+    if fmt.name == "json":
+        body = await asyncio.to_thread(render)
+    else:  # pictures and mesh files: bounded, and made once per job and options
+        body = await pool.render(key, render)
     return Response(body, media_type=fmt.media_type, headers=headers)
