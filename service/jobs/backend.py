@@ -37,6 +37,7 @@ __all__ = [
     "TaskError",
     "make_backend",
     "resolve_runner",
+    "scheduler_security",
 ]
 
 #: ``progress(percent, message)``
@@ -150,6 +151,25 @@ def _dask(settings: Settings) -> ComputeBackend:
         cancel_grace=settings.cancel_grace,
         stop_poll=settings.stop_poll,
         reconnect_timeout=settings.scheduler_timeout,
+        security=scheduler_security(settings),
+    )
+
+
+def scheduler_security(settings: Settings) -> Any:
+    """The TLS settings of the connection to a ``tls://`` Dask scheduler (None: plain TCP).
+
+    With ``scheduler_tls_ca`` the scheduler's certificate is checked against that CA and
+    encryption is required; ``scheduler_tls_cert`` and ``scheduler_tls_key`` are the service's
+    client certificate, for schedulers that require one (mutual TLS).
+    """
+    paths = (settings.scheduler_tls_ca, settings.scheduler_tls_cert, settings.scheduler_tls_key)
+    if all(p is None for p in paths):
+        return None
+    from distributed.security import Security
+
+    ca, cert, key = (None if p is None else str(p) for p in paths)
+    return Security(  # type: ignore[no-untyped-call]
+        tls_ca_file=ca, tls_client_cert=cert, tls_client_key=key, require_encryption=True
     )
 
 

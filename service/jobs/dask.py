@@ -81,6 +81,7 @@ class DaskBackend:
     ``scheduler`` is the scheduler's address (``tcp://host:8786``); ``None`` starts a local
     cluster of ``workers`` processes. ``direct`` gathers results straight from the workers
     (else through the scheduler). ``warmup`` loads the engine on every worker as it joins.
+    ``security`` (a :class:`distributed.security.Security`) connects to a ``tls://`` scheduler.
     """
 
     name = "dask"
@@ -95,6 +96,7 @@ class DaskBackend:
         reconnect_timeout: float = 120.0,
         direct: bool = True,
         warmup: bool = True,
+        security: Any = None,
     ) -> None:
         if workers < 1:
             raise ValueError("workers must be at least 1")
@@ -105,6 +107,7 @@ class DaskBackend:
         self.reconnect_timeout = reconnect_timeout
         self.direct = direct
         self.warmup = warmup
+        self.security = security
         # service-loop side
         self._events: Events | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
@@ -286,6 +289,7 @@ class DaskBackend:
                     direct_to_workers=self.direct,
                     set_as_default=False,
                     name="evomesh",
+                    security=self.security,
                 )
             except Exception as exc:  # refused, timed out, a version mismatch...
                 if first.is_set():
