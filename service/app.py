@@ -17,7 +17,8 @@ from fastapi.middleware.cors import CORSMiddleware
 from starlette.middleware.trustedhost import TrustedHostMiddleware
 
 from . import problems
-from .jobs.backend import ComputeBackend, make_backend
+from .jobs.backend import ComputeBackend
+from .jobs.factory import make_backend
 from .jobs.manager import JobManager
 from .jobs.sqlite import SqliteJobStore
 from .jobs.store import JobStore

@@ -10,6 +10,7 @@ import anyio.to_thread
 import numpy as np
 import orjson
 from fastapi import Request, Response
+from fastapi.exceptions import RequestValidationError
 from fastapi.routing import APIRoute
 from starlette.exceptions import HTTPException
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
@@ -134,10 +135,21 @@ def _is_json(content_type: str) -> bool:
     )
 
 
-async def read_json_body(request: Request, max_depth: int) -> None:
-    """Check and decode a JSON request body before FastAPI validates it (415 for another media
-    type); a large one is decoded in a thread, off the event loop. The value is left where
-    ``request.json()`` finds it."""
+def _decode_and_validate(body: bytes, max_depth: int, field: Any) -> Any:
+    value = decode_json(body, max_depth)
+    if field is None:
+        return value
+    model, errors = field.validate(value, loc=("body",))
+    if errors:
+        raise RequestValidationError(errors, body=value)
+    return model
+
+
+async def read_json_body(request: Request, max_depth: int, field: Any = None) -> None:
+    """Check, decode and validate (against ``field``, a route's body field) a JSON request body
+    before FastAPI sees it: 415 for another media type, and a large body is decoded and
+    validated in a thread, off the event loop. The result is left where ``request.json()`` finds
+    it; FastAPI's own validation of a model instance then takes no time."""
     body = await request.body()
     if not body:
         return
@@ -151,9 +163,9 @@ async def read_json_body(request: Request, max_depth: int) -> None:
             headers={"Accept-Post": "application/json"},
         )
     if len(body) <= INLINE_BODY_BYTES:
-        value = decode_json(body, max_depth)
+        value = _decode_and_validate(body, max_depth, field)
     else:
-        value = await anyio.to_thread.run_sync(decode_json, body, max_depth)
+        value = await anyio.to_thread.run_sync(_decode_and_validate, body, max_depth, field)
     request._json = value  # what Request.json() returns from now on
 
 
@@ -168,7 +180,7 @@ class JsonBodyRoute(APIRoute):
 
         async def read_then_handle(request: Request) -> Response:
             settings = request.app.state.settings
-            await read_json_body(request, settings.max_json_depth)
+            await read_json_body(request, settings.max_json_depth, self.body_field)
             return await handler(request)
 
         return read_then_handle

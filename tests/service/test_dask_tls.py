@@ -10,7 +10,7 @@ from typing import Any
 
 import pytest
 
-from service.jobs.backend import scheduler_security
+from service.jobs.factory import scheduler_security
 
 from .clusters import LOCAL_CLUSTER_CONFIG
 from .conftest import SQUARE, ClientFactory, make_settings, submit, wait_for
