@@ -232,3 +232,25 @@ async def test_a_job_whose_input_cannot_be_read_is_failed_at_restart(
     assert bad["status"] == "failed"
     assert "stored input" in bad["message"]
     assert (await wait_for(client, "fine"))["status"] == "successful"
+
+
+async def test_a_restart_after_poison_requests_is_clean(
+    make_client: ClientFactory, tmp_path: Path
+) -> None:
+    data = tmp_path / "restart"
+    first = await make_client(data_dir=data)
+    for place in ("foreign", "properties", "outputs", "batch"):
+        path, body = _with_member(place, nested(600))
+        assert_problem(await _post(first, path, body), 422, "limit-exceeded")
+    queued = await submit(first, "sleep", {"seconds": 30})
+    await wait_for(first, queued["jobID"], {"running"})
+    app = app_of(first)
+    await app.state.manager.close()  # stopped with a job in flight, as a killed service is
+    app.state.manager = None
+    second = await make_client(data_dir=data)  # starts, and finds only what it can run
+    assert (await second.get("/ready")).status_code == 200
+    resumed = await wait_for(second, queued["jobID"], {"running"})
+    assert resumed["attempts"] == 1
+    await second.delete(f"/jobs/{queued['jobID']}")
+    listed = (await second.get("/jobs")).json()
+    assert listed["numberMatched"] == 1
