@@ -39,7 +39,7 @@ import threading
 from typing import Any
 
 from .backend import BackendStats, Events, Task
-from .dask_connection import DaskConnection
+from .dask_connection import DaskConnection, DaskOptions
 
 __all__ = ["DaskBackend"]
 
@@ -69,14 +69,9 @@ class DaskBackend:
     ) -> None:
         if workers < 1:
             raise ValueError("workers must be at least 1")
-        self.scheduler = scheduler
-        self.workers = workers
-        self.cancel_grace = cancel_grace
-        self.stop_poll = stop_poll
-        self.reconnect_timeout = reconnect_timeout
-        self.direct = direct
-        self.warmup = warmup
-        self.security = security
+        self.options = DaskOptions(
+            scheduler, workers, cancel_grace, stop_poll, reconnect_timeout, direct, warmup, security
+        )
         # service-loop side
         self._events: Events | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
@@ -92,17 +87,7 @@ class DaskBackend:
         self._events = events
         self._loop = asyncio.get_running_loop()
         self._closing = False
-        self._conn = DaskConnection(
-            self.scheduler,
-            emit=self._emit,
-            workers=self.workers,
-            cancel_grace=self.cancel_grace,
-            stop_poll=self.stop_poll,
-            reconnect_timeout=self.reconnect_timeout,
-            direct=self.direct,
-            warmup=self.warmup,
-            security=self.security,
-        )
+        self._conn = DaskConnection(self.options, self._emit)
         await self._conn.start()
 
     async def close(self) -> None:
@@ -140,7 +125,7 @@ class DaskBackend:
         conn = self._conn
         alive = len(conn.members) if conn is not None and conn.connected else 0
         return BackendStats(
-            workers=self.workers if self.scheduler is None else alive,
+            workers=self.options.workers if self.options.scheduler is None else alive,
             alive=alive,
             busy=busy,
             queued=len(self._jobs) - busy,

@@ -29,7 +29,7 @@ from distributed import Client, Event, Future, KilledWorker, as_completed
 from .backend import Outcome, OutcomeKind, Task
 from .dask_worker import TOPIC, Warmup, execute, stop_name
 
-__all__ = ["DaskConnection"]
+__all__ = ["DaskConnection", "DaskOptions"]
 
 log = logging.getLogger("evomesh.dask")
 
@@ -54,6 +54,20 @@ class _Run:
     finished: bool = False
 
 
+@dataclass(frozen=True)
+class DaskOptions:
+    """How the Dask backend uses its cluster (see :class:`service.jobs.dask.DaskBackend`)."""
+
+    scheduler: str | None = None  #: address (tcp:// or tls://); None: a LocalCluster of ours
+    workers: int = 1  #: processes of a LocalCluster of ours
+    cancel_grace: float = 10.0  #: seconds a stopping run gets before its worker is ended
+    stop_poll: float = 0.25  #: seconds between a worker's checks for a stop request
+    reconnect_timeout: float = 120.0  #: seconds waiting runs wait for a lost scheduler
+    direct: bool = True  #: gather results from the workers, not through the scheduler
+    warmup: bool = True  #: load the engine on every worker as it joins
+    security: Any = None  #: a distributed Security for a tls:// scheduler
+
+
 class DaskConnection:
     """The cluster as one client sees it, on a thread of its own (see the module docstring).
 
@@ -61,27 +75,8 @@ class DaskConnection:
     the Dask thread, in order.
     """
 
-    def __init__(
-        self,
-        scheduler: str | None,
-        *,
-        emit: Callable[..., None],
-        workers: int = 1,
-        cancel_grace: float = 10.0,
-        stop_poll: float = 0.25,
-        reconnect_timeout: float = 120.0,
-        direct: bool = True,
-        warmup: bool = True,
-        security: Any = None,
-    ) -> None:
-        self.scheduler = scheduler
-        self.workers = workers
-        self.cancel_grace = cancel_grace
-        self.stop_poll = stop_poll
-        self.reconnect_timeout = reconnect_timeout
-        self.direct = direct
-        self.warmup = warmup
-        self.security = security
+    def __init__(self, options: DaskOptions, emit: Callable[..., None]) -> None:
+        self.options = options
         self._emit = emit
         self._dloop: asyncio.AbstractEventLoop | None = None
         self._thread: threading.Thread | None = None
@@ -89,7 +84,7 @@ class DaskConnection:
         self._seq = itertools.count(1)
         self._cluster: Any = None
         self._client: Client | None = None
-        self._address = scheduler or ""
+        self._address = options.scheduler or ""
         self.connected = False
         self._lost_since: float | None = time.monotonic()
         self._runs: dict[str, _Run] = {}  #: key -> run
@@ -164,12 +159,12 @@ class DaskConnection:
         task.add_done_callback(done)
 
     async def _open(self) -> None:
-        if self.scheduler is None:
+        if self.options.scheduler is None:
             # A LocalCluster closes a worker's nanny if, lost-worker-timeout after *any* removal
             # of it, it is gone again: a worker killed twice 15 s apart would be lost for good.
             dask.config.set({"distributed.deploy.lost-worker-timeout": "1h"})
             self._cluster = await distributed.LocalCluster(
-                n_workers=self.workers,
+                n_workers=self.options.workers,
                 threads_per_worker=1,
                 processes=True,
                 host="127.0.0.1",
@@ -190,10 +185,10 @@ class DaskConnection:
                     self._address,
                     asynchronous=True,
                     timeout=CONNECT_TIMEOUT,
-                    direct_to_workers=self.direct,
+                    direct_to_workers=self.options.direct,
                     set_as_default=False,
                     name="evomesh",
-                    security=self.security,
+                    security=self.options.security,
                 )
             except Exception as exc:  # refused, timed out, a version mismatch...
                 if first.is_set():
@@ -226,7 +221,7 @@ class DaskConnection:
         assert client.scheduler is not None
         identity = await client.scheduler.identity(n_workers=-1)
         self.members = set(identity.get("workers", {}))
-        if self.warmup:
+        if self.options.warmup:
             try:
                 await client.register_plugin(Warmup(), name="evomesh-warmup")
             except Exception as exc:  # a worker without evomesh: its jobs fail, with the reason
@@ -281,7 +276,7 @@ class DaskConnection:
         """Runs waiting for a scheduler that has not come back in time end with an error."""
         if self._lost_since is None or not self._waiting:
             return
-        if time.monotonic() - self._lost_since < self.reconnect_timeout:
+        if time.monotonic() - self._lost_since < self.options.reconnect_timeout:
             return
         waiting, self._waiting = self._waiting, []
         for run in waiting:
@@ -290,7 +285,7 @@ class DaskConnection:
     def _unreachable(self) -> str:
         return (
             f"the Dask scheduler at {self._address} has been unreachable for more than "
-            f"{self.reconnect_timeout:g} s"
+            f"{self.options.reconnect_timeout:g} s"
         )
 
     async def _shutdown(self) -> None:
@@ -349,7 +344,7 @@ class DaskConnection:
         if self.connected:
             self._queue(run)
         elif self._lost_since is not None and (
-            time.monotonic() - self._lost_since >= self.reconnect_timeout
+            time.monotonic() - self._lost_since >= self.options.reconnect_timeout
         ):
             self._finish(run, Outcome(OutcomeKind.error, reason=self._unreachable()))
         else:
@@ -378,7 +373,7 @@ class DaskConnection:
                 [r.task.runner for r in runs],
                 [r.task.payload for r in runs],
                 [r.key for r in runs],
-                poll=self.stop_poll,
+                poll=self.options.stop_poll,
                 key=[r.key for r in runs],
                 pure=False,
             )
@@ -424,7 +419,7 @@ class DaskConnection:
         if run.timer is not None:
             run.timer.cancel()
         run.timer = asyncio.get_running_loop().call_later(
-            self.cancel_grace, self._kill_if_stuck, run
+            self.options.cancel_grace, self._kill_if_stuck, run
         )
 
     def _kill_if_stuck(self, run: _Run) -> None:
@@ -554,7 +549,7 @@ class DaskConnection:
         done = [(r, f) for r, f in live if f.status == "finished"]
         if done:
             try:
-                values = await client.gather([f for _, f in done], direct=self.direct)
+                values = await client.gather([f for _, f in done], direct=self.options.direct)
             except Exception:
                 values = None
             if values is not None:
@@ -563,7 +558,7 @@ class DaskConnection:
             else:  # one of them went missing: one by one
                 for run, future in done:
                     try:
-                        value = await client.gather(future, direct=self.direct)
+                        value = await client.gather(future, direct=self.options.direct)
                     except Exception as exc:
                         if not run.finished and self._client is client:
                             self._drop_future(run)
