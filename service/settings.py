@@ -70,6 +70,12 @@ class Settings(BaseSettings):
     max_queued: int = Field(
         20_000, ge=1, description="jobs waiting to start; beyond it execution answers 429"
     )
+    max_queued_per_key: int | None = Field(
+        None,
+        ge=1,
+        description="jobs of one API key waiting to start; beyond it that key gets 429 (none:"
+        " only max_queued)",
+    )
 
     ga_rate: float = Field(
         5e6,

@@ -79,6 +79,7 @@ class JobManager:
         #: Store writes that failed, oldest first, retried in this order by :meth:`reconcile`.
         self._pending: deque[tuple[str, Callable[..., Any], tuple[Any, ...]]] = deque()
         self._finishing: set[str] = set()  #: ids whose final write is on its way
+        self._owners: dict[str, str] = {}  #: job id -> owner, of the jobs in _inflight
         self._closing = False
 
     # -- lifecycle -----------------------------------------------------------------------------
@@ -108,6 +109,7 @@ class JobManager:
                 self.store.requeue(job_id, "queued again after a service stop", keep_attempt=False)
         self._inflight.clear()
         self._running.clear()
+        self._owners.clear()
 
     def recover(self) -> int:
         """Queue again (or fail, past ``max_attempts``) the unfinished jobs nothing runs: those a
@@ -125,7 +127,9 @@ class JobManager:
                     )
                     continue
                 self.store.requeue(record.id, "queued again after a restart")
-                count += self._dispatch(record.id, record.process, record.attempts + 1)
+                count += self._dispatch(
+                    record.id, record.process, record.attempts + 1, owner=record.owner
+                )
             except StoreUnavailable:
                 raise
             except Exception as exc:
@@ -180,9 +184,19 @@ class JobManager:
         """Jobs handed to the backend that have not started yet."""
         return len(self._inflight) - len(self._running)
 
-    def admit(self, process: str, count: int) -> None:
-        """Raise :class:`QueueFull` unless ``count`` more jobs may wait (``max_queued``)."""
+    def waiting_for(self, owner: str) -> int:
+        """Jobs of ``owner`` handed to the backend that have not started yet."""
+        return sum(
+            1 for j in self._inflight if j not in self._running and self._owners.get(j) == owner
+        )
+
+    def admit(self, process: str, count: int, owner: str = "") -> None:
+        """Raise :class:`QueueFull` unless ``count`` more jobs may wait: ``max_queued`` in all,
+        and ``max_queued_per_key`` of one API key's (so one client cannot fill the queue)."""
         waiting, limit = self.waiting, self.settings.max_queued
+        per_key = self.settings.max_queued_per_key
+        if per_key is not None and waiting + count <= limit:
+            waiting, limit = self.waiting_for(owner), per_key
         if waiting + count > limit:
             self.metrics.refused.labels(process).inc(count)
             wait = retry_after(waiting + count - limit, self._leaving.per_second())
@@ -199,7 +213,7 @@ class JobManager:
     ) -> tuple[JobRecord, bool]:
         """Create a job (written before anyone hears of it) and queue it; :class:`QueueFull`
         when too many wait already. Idempotency keys are the ``owner``'s own."""
-        self.admit(process.id, 1)
+        self.admit(process.id, 1, owner)
         job = NewJob(
             id=str(uuid.uuid4()),
             process=process.id,
@@ -213,7 +227,7 @@ class JobManager:
         if created:
             self.metrics.submitted.labels(process.id).inc()
             log.info("job accepted", extra={"job_id": record.id, "processID": process.id})
-            self._dispatch(record.id, process.id, 1, prepared.inputs)
+            self._dispatch(record.id, process.id, 1, prepared.inputs, owner)
         return record, created
 
     def submit_batch(
@@ -221,7 +235,7 @@ class JobManager:
     ) -> BatchRecord:
         """Create the jobs of a batch in one transaction, then queue them: all of them, or none
         (:class:`QueueFull`)."""
-        self.admit(process.id, len(items))
+        self.admit(process.id, len(items), owner)
         batch_id = str(uuid.uuid4())
         jobs = [
             NewJob(str(uuid.uuid4()), process.id, p.inputs, p.seed, batch_id=batch_id, owner=owner)
@@ -231,7 +245,7 @@ class JobManager:
         self.metrics.submitted.labels(process.id).inc(len(jobs))
         log.info("batch accepted", extra={"batch_id": batch_id, "jobs": len(jobs)})
         for job in jobs:
-            self._dispatch(job.id, process.id, 1, job.inputs)
+            self._dispatch(job.id, process.id, 1, job.inputs, owner)
         return batch
 
     def dismiss(self, job_id: str) -> JobRecord | None:
@@ -244,7 +258,12 @@ class JobManager:
         return record
 
     def _dispatch(
-        self, job_id: str, process_id: str, attempt: int, inputs: dict[str, Any] | None = None
+        self,
+        job_id: str,
+        process_id: str,
+        attempt: int,
+        inputs: dict[str, Any] | None = None,
+        owner: str | None = None,
     ) -> bool:
         """Hand a job to the backend; a job that cannot be handed over is failed with the
         reason (and holds no worker). Returns whether it was handed over."""
@@ -263,12 +282,15 @@ class JobManager:
         if payload is None:  # purged meanwhile
             return False
         self._inflight[job_id] = attempt
+        if owner is not None:  # a retry keeps the owner it had
+            self._owners[job_id] = owner
         try:
             self.backend.submit(
                 Task(job_id, process.runner, payload, attempt, self.settings.job_timeout)
             )
         except Exception as exc:
             self._inflight.pop(job_id, None)
+            self._owners.pop(job_id, None)
             reason = f"the job could not be handed to a worker: {type(exc).__name__}: {exc}"
             log.error(reason, extra={"job_id": job_id})
             self._write("fail", self.store.fail, job_id, reason)
@@ -297,6 +319,7 @@ class JobManager:
         attempt = self._inflight.pop(job_id, None)
         if attempt is None:
             return
+        owner = self._owners.pop(job_id, "")
         self._running.discard(job_id)
         self._leaving.record()
         try:
@@ -315,7 +338,7 @@ class JobManager:
                     "requeue", self.store.requeue, job_id, f"retrying after: {outcome.reason}"
                 )
                 if requeued:  # (a kept requeue is run again by the reconciler)
-                    self._dispatch(job_id, process, attempt + 1)
+                    self._dispatch(job_id, process, attempt + 1, owner=owner)
             else:
                 reason = f"{outcome.reason} (attempt {attempt} of {self.settings.max_attempts})"
                 log.error("job failed: %s", reason, extra=extra)

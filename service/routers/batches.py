@@ -155,7 +155,7 @@ async def create_batch(
             kind="limit-exceeded",
             pointer="/features" if body.features is not None else "/requests",
         )
-    manager.admit(process.id, count)  # refuse early, before the work of preparing every item
+    manager.admit(process.id, count, owner)  # refuse early, before the work of preparing every item
     prepared = await off_loop(_prepare_all, body, process, settings)
     batch = manager.submit_batch(process, prepared, owner)
     base = base_url(request)

@@ -73,3 +73,20 @@ async def test_metrics_can_require_a_key(make_client: ClientFactory) -> None:
     r = await closed.get("/metrics", headers=A)
     assert r.status_code == 200
     assert "evomesh_" in r.text
+
+
+async def test_one_key_cannot_fill_the_queue(make_client: ClientFactory) -> None:
+    client = await make_client(api_keys="key-a,key-b", max_queued_per_key=1, workers=1)
+    url = "/processes/sleep/execution"
+    running = await client.post(url, json={"inputs": {"seconds": 30}}, headers=A)
+    client.headers.update(A)
+    await wait_for(client, running.json()["jobID"], {"running"})
+    del client.headers["X-API-Key"]
+    assert (await client.post(url, json={"inputs": {"seconds": 0}}, headers=A)).status_code == 201
+    r = await client.post(url, json={"inputs": {"seconds": 0}}, headers=A)
+    doc = assert_problem(r, 429, "queue-full")
+    assert r.headers["Retry-After"]
+    assert doc["limit"] == 1
+    other = await client.post(url, json={"inputs": {"seconds": 0}}, headers=B)
+    assert other.status_code == 201, other.text  # another client still gets in
+    await client.delete(f"/jobs/{running.json()['jobID']}", headers=A)
