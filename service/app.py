@@ -14,15 +14,18 @@ from typing import Any
 
 from fastapi import FastAPI
 from fastapi.middleware.cors import CORSMiddleware
+from starlette.middleware.trustedhost import TrustedHostMiddleware
 
 from . import problems
-from .jobs.backend import ComputeBackend, make_backend
+from .jobs.backend import ComputeBackend
+from .jobs.factory import make_backend
 from .jobs.manager import JobManager
 from .jobs.sqlite import SqliteJobStore
 from .jobs.store import JobStore
 from .metrics import Metrics
 from .middleware import BodyLimit
 from .processes import PROCESSES, Process
+from .render.pool import RenderPool
 from .routers import batches, docs, jobs, landing, viewer
 from .routers.processes import build_router
 from .settings import Settings
@@ -71,6 +74,7 @@ def create_app(
     app.state.settings = settings
     app.state.metrics = Metrics()
     app.state.manager = None
+    app.state.render_pool = RenderPool(settings.render_workers, settings.render_cache_bytes)
     problems.install(app)
     app.include_router(landing.router)
     app.include_router(build_router(procs))
@@ -87,6 +91,10 @@ def create_app(
             expose_headers=["Location"],
         )
     app.add_middleware(BodyLimit, max_bytes=settings.max_body_bytes)
+    if settings.trusted_hosts:
+        # Links and Location headers are built from the Host header unless public_url is set:
+        # a Host the operator did not list is refused, never echoed.
+        app.add_middleware(TrustedHostMiddleware, allowed_hosts=settings.trusted_hosts)
     _document_problems(app)
     return app
 

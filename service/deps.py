@@ -6,6 +6,7 @@ a thread hop per dependency per request costs more than everything they do.
 
 from __future__ import annotations
 
+import hashlib
 import secrets
 from typing import Annotated
 
@@ -17,7 +18,15 @@ from .metrics import Metrics
 from .problems import Problem
 from .settings import Settings
 
-__all__ = ["ManagerDep", "MetricsDep", "SettingsDep", "StoreDep", "require_api_key"]
+__all__ = [
+    "ManagerDep",
+    "MetricsDep",
+    "OwnerDep",
+    "SettingsDep",
+    "StoreDep",
+    "owner_of",
+    "require_api_key",
+]
 
 
 async def get_settings(request: Request) -> Settings:
@@ -68,3 +77,22 @@ async def require_api_key(request: Request, settings: SettingsDep) -> None:
         )
     if not any(secrets.compare_digest(key.encode(), k.encode()) for k in settings.api_keys):
         raise Problem(403, "the API key is not valid")
+
+
+def owner_of(key: str | None) -> str:
+    """Who a request acts for: a digest of its API key ("" without one). Jobs and batches are
+    stored with it (never the key itself); another key sees none of them.
+
+    >>> owner_of(None), owner_of("k1") == owner_of("k1"), owner_of("k1") == owner_of("k2")
+    ('', True, False)
+    """
+    return "" if key is None else hashlib.sha256(key.encode()).hexdigest()[:32]
+
+
+async def get_owner(request: Request, settings: SettingsDep) -> str:
+    """The owner of what the request makes or reads (after :func:`require_api_key`)."""
+    await require_api_key(request, settings)
+    return owner_of(_presented(request)) if settings.api_keys else ""
+
+
+OwnerDep = Annotated[str, Depends(get_owner)]

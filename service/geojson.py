@@ -16,7 +16,14 @@ import numpy as np
 
 from engine import InvalidBoundary, Region, make_region
 
-__all__ = ["BoundaryInputError", "ParsedRegion", "parse_region", "project_wgs84"]
+__all__ = [
+    "BoundaryInputError",
+    "ParsedRegion",
+    "Parts",
+    "build_region",
+    "parse_region",
+    "project_wgs84",
+]
 
 _EARTH_RADIUS_M = 6_371_008.8
 
@@ -35,6 +42,7 @@ class ParsedRegion:
     """A validated region, with what is needed to point back into the input."""
 
     region: Region
+    parts: Parts  #: the rings as read (lon/lat for wgs84), for :func:`build_region`
     ring_pointers: tuple[tuple[str, ...], ...]  #: per part, per ring: JSON pointer of the ring
     properties: dict[str, Any]  #: the Feature's properties (first Feature's for collections)
     to_lonlat: Callable[[np.ndarray], np.ndarray] | None = None  #: inverse of the wgs84 projection
@@ -57,6 +65,14 @@ def locate(ring_pointers: Sequence[Sequence[str]], exc: InvalidBoundary) -> str:
 
 
 _Part = tuple[Any, list[Any]]
+#: A region as plain data: per part, its outer ring and its holes, each a list of [x, y] floats.
+#: This, not the client's JSON, is what a job stores and a worker receives.
+Parts = list[tuple[list[list[float]], list[list[list[float]]]]]
+
+
+def _floats(ring: Any) -> list[list[float]]:
+    # Positions were checked to start with two numbers; a third (altitude) is dropped.
+    return [[float(p[0]), float(p[1])] for p in ring]
 
 
 def _polygon_rings(coords: Any, ptr: str) -> tuple[_Part, tuple[str, ...]]:
@@ -198,24 +214,38 @@ def parse_region(obj: Any, *, pointer: str = "", wgs84: bool = False) -> ParsedR
     >>> p.ring_pointers
     (('/coordinates/0',),)
     """
-    parts, props = _parts(obj, pointer)
-    ring_pointers = tuple(ptrs for _, ptrs in parts)
-    rings = [p for p, _ in parts]
-    to_lonlat = None
+    found, props = _parts(obj, pointer)
+    ring_pointers = tuple(ptrs for _, ptrs in found)
+    parts: Parts = [(_floats(outer), [_floats(h) for h in holes]) for (outer, holes), _ in found]
     if wgs84:
-        for ptrs, (outer, holes) in zip(ring_pointers, rings, strict=True):
+        for ptrs, (outer, holes) in zip(ring_pointers, parts, strict=True):
             for ptr, ring in zip(ptrs, [outer, *holes], strict=True):
-                xy = np.asarray(ring, dtype=np.float64)[:, :2]
+                xy = np.asarray(ring, dtype=np.float64).reshape(-1, 2)
                 bad = np.flatnonzero((np.abs(xy[:, 0]) > 180) | (np.abs(xy[:, 1]) > 90))
                 if bad.size:
                     raise BoundaryInputError(
                         "longitude must be within [-180, 180] and latitude within [-90, 90]",
                         f"{ptr}/{bad[0]}",
                     )
-        rings, to_lonlat = project_wgs84(rings)
     try:
-        region = make_region(rings)
+        region, to_lonlat = build_region(parts, wgs84=wgs84)
     except InvalidBoundary as exc:
         exc.pointer = locate(ring_pointers, exc) or pointer  # type: ignore[attr-defined]
         raise
-    return ParsedRegion(region, ring_pointers, props, to_lonlat)
+    return ParsedRegion(region, parts, ring_pointers, props, to_lonlat)
+
+
+def build_region(
+    parts: Parts, *, wgs84: bool = False
+) -> tuple[Region, Callable[[np.ndarray], np.ndarray] | None]:
+    """The region of ``parts`` (projected first with ``wgs84``) and the inverse projection.
+
+    >>> region, _ = build_region([([[0.0, 0.0], [2.0, 0.0], [0.0, 2.0]], [])])
+    >>> region.area
+    2.0
+    """
+    rings: list[_Part] = list(parts)
+    to_lonlat = None
+    if wgs84:
+        rings, to_lonlat = project_wgs84(rings)
+    return make_region(rings), to_lonlat

@@ -29,7 +29,8 @@ __all__ = [
 ]
 
 _S = SmoothingParams()
-_STRICT = ConfigDict(extra="forbid", allow_inf_nan=False)
+#: Unknown members are errors, and numbers are numbers: "0.1" or true is not a size.
+_STRICT = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
 
 _POSITION = {"type": "array", "items": {"type": "number"}, "minItems": 2, "maxItems": 3}
 _RING = {"type": "array", "items": _POSITION, "minItems": 3}
@@ -173,7 +174,8 @@ Index = Annotated[int, Field(ge=0, le=2**31 - 1)]
 class MeshDocumentInput(BaseModel):
     """A mesh: ``points`` and counter-clockwise, 0-based ``triangles`` (a mesh document)."""
 
-    model_config = ConfigDict(extra="allow", allow_inf_nan=False)
+    # A whole result document may be given: its other members are dropped, never kept.
+    model_config = ConfigDict(extra="ignore", allow_inf_nan=False, strict=True)
 
     points: list[Annotated[list[float], Field(min_length=2, max_length=2)]] = Field(min_length=3)
     triangles: list[Annotated[list[Index], Field(min_length=3, max_length=3)]] = Field(min_length=1)
@@ -205,7 +207,7 @@ class ExecuteRequest(BaseModel):
     """The OGC execute request; ``outputs`` and ``response`` are accepted, the result is always
     the mesh document (``GET /jobs/{jobID}/results``)."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", strict=True)
 
     inputs: BaseModel
     outputs: dict[str, Any] | None = None

@@ -28,6 +28,7 @@ from engine import InvalidBoundary, InvalidMesh
 from .formats import FormatError
 from .geojson import BoundaryInputError
 from .jobs.admission import QueueFull
+from .jobs.store import StoreCorrupt, StoreUnavailable
 
 __all__ = [
     "MEDIA_TYPE",
@@ -127,10 +128,25 @@ def _validation_errors(exc: RequestValidationError) -> list[dict[str, Any]]:
     return out
 
 
-def problem_for(exc: Exception) -> Problem:
+#: ``Retry-After`` of a 503 for a store that cannot be written, unless the settings say.
+STORE_RETRY_AFTER = 10
+
+
+def problem_for(exc: Exception, store_retry_after: int = STORE_RETRY_AFTER) -> Problem:
     """The problem an exception stands for (the one mapping of errors to HTTP)."""
     if isinstance(exc, Problem):
         return exc
+    if isinstance(exc, StoreUnavailable):
+        # Nothing was created or changed: the same request may succeed once space is back.
+        return Problem(
+            503,
+            "the job store cannot be written now; nothing was changed, try again later",
+            kind="store-unavailable",
+            title="Store unavailable",
+            headers={"Retry-After": str(store_retry_after)},
+        )
+    if isinstance(exc, StoreCorrupt):
+        return Problem(500, "a stored item cannot be read", kind="store-corrupt")
     if isinstance(exc, RequestValidationError):
         errors = _validation_errors(exc)
         first = errors[0] if errors else {"detail": "invalid request"}
@@ -184,8 +200,11 @@ def response_for(problem: Problem, instance: str | None = None) -> ProblemRespon
 
 
 async def _handle(request: Request, exc: Exception) -> ProblemResponse:
-    problem = problem_for(exc)
-    if problem.status >= 500:
+    settings = getattr(request.app.state, "settings", None)
+    problem = problem_for(exc, getattr(settings, "store_retry_after", STORE_RETRY_AFTER))
+    if problem.status == 503:
+        log.warning("%s %s: %s", request.method, request.url.path, exc)
+    elif problem.status >= 500:
         log.error("unhandled error on %s %s", request.method, request.url.path, exc_info=exc)
     return response_for(problem, request.url.path)
 
@@ -201,6 +220,8 @@ def install(app: FastAPI) -> None:
         InvalidMesh,
         FormatError,
         QueueFull,
+        StoreUnavailable,
+        StoreCorrupt,
         Exception,
     ):
         app.add_exception_handler(kind, _handle)

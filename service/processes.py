@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 import secrets
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 from pydantic import BaseModel
@@ -19,7 +19,7 @@ from pydantic import BaseModel
 import engine
 
 from .document import mesh_from_document
-from .geojson import BoundaryInputError, parse_region
+from .geojson import BoundaryInputError, ParsedRegion, parse_region
 from .inputs import (
     ExecuteRequest,
     MeshDocumentInput,
@@ -40,8 +40,9 @@ __all__ = [
     "Process",
     "Where",
     "count_rings",
-    "estimate_triangles",
+    "estimate_mesh",
     "inputs_at",
+    "triangle_cap",
 ]
 
 #: ``where(input_name) -> JSON pointer`` of an input in the request (for error reports).
@@ -55,11 +56,6 @@ def inputs_at(base: str) -> Where:
     '/inputs/size'
     """
     return lambda name: f"{base}/{name}"
-
-
-#: Area of an equilateral triangle of unit side: a region of area A meshed at size h holds about
-#: A / (EQUILATERAL * h^2) triangles.
-EQUILATERAL = math.sqrt(3.0) / 4.0
 
 
 @dataclass(frozen=True)
@@ -126,16 +122,22 @@ def count_rings(obj: Any, limit: int = 10**9) -> tuple[int, int]:
     return rings, positions
 
 
-def estimate_triangles(area: float, size: float) -> int:
-    """Triangles of a region of ``area`` meshed at edge length ``size``.
+def estimate_mesh(region: engine.Region, sizing: engine.SizingParams) -> int:
+    """Triangles the engine expects for ``region`` at ``sizing``: the engine's own estimator
+    (the one the worker checks again), so admission and the engine cannot disagree.
 
-    >>> estimate_triangles(1.0, 0.1)
+    >>> square = engine.make_region([([[0, 0], [1, 0], [1, 1], [0, 1]], [])])
+    >>> estimate_mesh(square, engine.SizingParams(size=0.1))
     231
     """
-    return math.ceil(area / (EQUILATERAL * size * size))
+    from engine.sizing import build_size_field
+
+    return int(engine.estimate_triangles(region, build_size_field(region, sizing)))
 
 
 def _smoothing(smoothing: SmoothingInput, where: Where) -> dict[str, Any]:
+    """The resolved smoothing input (seed chosen), checked by the engine's own parameters so
+    what the worker would refuse is refused now (e.g. alpha = beta = 0)."""
     if smoothing.method not in engine.SMOOTHERS:  # the default may not be installed
         raise Problem(
             422,
@@ -145,8 +147,13 @@ def _smoothing(smoothing: SmoothingInput, where: Where) -> dict[str, Any]:
             pointer=f"{where('smoothing')}/method",
         )
     values = smoothing.model_dump()
-    if values["seed"] is None:
-        values["seed"] = secrets.randbits(63)  # stored with the job: reruns are identical
+    seed = values.pop("seed")
+    try:
+        values = asdict(engine.SmoothingParams(**values))
+    except ValueError as exc:
+        raise Problem(422, str(exc), kind="invalid-input", pointer=where("smoothing")) from None
+    # Stored with the job: reruns are identical.
+    values["seed"] = secrets.randbits(63) if seed is None else seed
     return values
 
 
@@ -161,17 +168,69 @@ def _limit(value: float, limit: float, what: str, pointer: str) -> None:
         )
 
 
-def _ga_work(smoothing: dict[str, Any], triangles: int, settings: Settings, where: Where) -> None:
+def _ga_factor(smoothing: dict[str, Any]) -> int:
+    """GA fitness evaluations per interior node (0 for the other smoothers)."""
     if smoothing["method"] != "ga":
+        return 0
+    return int(smoothing["population"] * smoothing["generations"] * smoothing["max_sweeps"])
+
+
+def _ga_work(smoothing: dict[str, Any], triangles: int, settings: Settings, where: Where) -> None:
+    factor = _ga_factor(smoothing)
+    if not factor:
         return
     nodes = max(1, triangles // 2)
-    work = nodes * smoothing["population"] * smoothing["generations"] * smoothing["max_sweeps"]
     _limit(
-        float(work),
-        settings.max_ga_work,
-        "the GA work (nodes x population x generations x sweeps)",
+        float(nodes * factor),
+        settings.ga_work_limit,
+        "the GA work (nodes x population x generations x sweeps; its limit is max_ga_work, and"
+        " no more than job_timeout x ga_rate)",
         where("smoothing"),
     )
+
+
+def triangle_cap(smoothing: dict[str, Any], settings: Settings) -> int:
+    """The most triangles the real mesh of a ``mesh`` job may have: ``max_triangles``, and for
+    the GA the count whose work reaches the GA-work limit (a node per two triangles).
+
+    >>> s = Settings(max_triangles=1000, max_ga_work=1e6, _env_file=None)
+    >>> triangle_cap({"method": "ga", "population": 10, "generations": 10, "max_sweeps": 10}, s)
+    1000
+    >>> triangle_cap({"method": "ga", "population": 100, "generations": 100, "max_sweeps": 10}, s)
+    20
+    """
+    factor = _ga_factor(smoothing)
+    if not factor:
+        return settings.max_triangles
+    return max(1, min(settings.max_triangles, int(2 * settings.ga_work_limit // factor)))
+
+
+#: Lengths are accepted between these multiples of the region's extent: below, the squares the
+#: estimator takes underflow; above, the length means nothing (a triangle per corner already).
+LENGTH_RANGE = (1e-9, 1e3)
+
+
+def _sizing(
+    parsed: ParsedRegion, lengths: dict[str, float | None], growth: float, where: Where
+) -> engine.SizingParams:
+    x0, y0, x1, y1 = parsed.region.bounds
+    extent = max(x1 - x0, y1 - y0)
+    lo, hi = extent * LENGTH_RANGE[0], extent * LENGTH_RANGE[1]
+    for name, value in lengths.items():
+        if value is not None and not lo <= value <= hi:
+            raise Problem(
+                422,
+                f"{name} is {value:.4g}; for this region (extent {extent:.4g}) it must be"
+                f" between {lo:.4g} and {hi:.4g}",
+                kind="invalid-input",
+                pointer=where(name),
+            )
+    size = lengths["size"]
+    assert size is not None
+    try:
+        return engine.SizingParams(size, growth, lengths["size_min"], lengths["size_max"])
+    except ValueError as exc:
+        raise Problem(422, str(exc), kind="invalid-input", pointer=where("size")) from None
 
 
 def _prepare_mesh(inputs: MeshInputs, settings: Settings, where: Where) -> Prepared:
@@ -199,17 +258,25 @@ def _prepare_mesh(inputs: MeshInputs, settings: Settings, where: Where) -> Prepa
                 pointer=where("size"),
             )
         size = float(h)
-    try:
-        engine.SizingParams(size, inputs.growth, inputs.size_min, inputs.size_max)
-    except ValueError as exc:
-        raise Problem(422, str(exc), kind="invalid-input", pointer=where("size")) from None
-    triangles = estimate_triangles(parsed.region.area, size)
-    _limit(triangles, settings.max_triangles, "the estimated number of triangles", where("size"))
+    lengths = {"size": size, "size_min": inputs.size_min, "size_max": inputs.size_max}
+    sizing = _sizing(parsed, lengths, inputs.growth, where)
     smoothing = _smoothing(inputs.smoothing, where)
+    triangles = estimate_mesh(parsed.region, sizing)
+    _limit(triangles, settings.max_triangles, "the estimated number of triangles", where("size"))
     _ga_work(smoothing, triangles, settings, where)
-    resolved = inputs.model_dump()
-    resolved["size"] = size
-    resolved["smoothing"] = smoothing
+    # What the job keeps and the worker gets: the rings as floats and the resolved parameters,
+    # never the client's JSON (whose foreign members may be anything).
+    resolved = {
+        "parts": parsed.parts,
+        "coordinates": inputs.coordinates,
+        "size": sizing.size,
+        "growth": sizing.growth,
+        "size_min": sizing.size_min,
+        "size_max": sizing.size_max,
+        "swap": inputs.swap,
+        "smoothing": smoothing,
+        "max_triangles": triangle_cap(smoothing, settings),
+    }
     return Prepared(resolved, smoothing["seed"], triangles)
 
 
@@ -251,6 +318,10 @@ def _prepare_smooth(inputs: SmoothInputs, settings: Settings, where: Where) -> P
 
 
 def _prepare_quality(inputs: QualityInputs, settings: Settings, where: Where) -> Prepared:
+    try:
+        engine.SmoothingParams(fitness=inputs.fitness, alpha=inputs.alpha, beta=inputs.beta)
+    except ValueError as exc:
+        raise Problem(422, str(exc), kind="invalid-input", pointer=where("alpha")) from None
     triangles = _mesh_size(inputs.mesh, settings, where)
     resolved = inputs.model_dump(exclude_none=True)
     resolved["mesh"] = _mesh_only(inputs.mesh)

@@ -53,6 +53,13 @@ class Settings(BaseSettings):
     )
 
     max_body_bytes: int = Field(32 * 1024 * 1024, ge=1024, description="request body limit")
+    max_json_depth: int = Field(
+        32,
+        ge=8,
+        le=512,
+        description="nesting depth of a request body's JSON (arrays and objects), checked before"
+        " it is decoded",
+    )
     max_vertices: int = Field(100_000, ge=3, description="boundary vertices (or mesh points)")
     max_rings: int = Field(1_000, ge=1, description="rings of a boundary, holes included")
     max_triangles: int = Field(2_000_000, ge=1, description="estimated triangles of one job")
@@ -63,7 +70,19 @@ class Settings(BaseSettings):
     max_queued: int = Field(
         20_000, ge=1, description="jobs waiting to start; beyond it execution answers 429"
     )
+    max_queued_per_key: int | None = Field(
+        None,
+        ge=1,
+        description="jobs of one API key waiting to start; beyond it that key gets 429 (none:"
+        " only max_queued)",
+    )
 
+    ga_rate: float = Field(
+        5e6,
+        gt=0,
+        description="GA fitness evaluations per second of one worker (measured: 2.9e6-4.1e6 on"
+        " a loaded 2-core machine); max_ga_work buys at most job_timeout seconds at this rate",
+    )
     job_timeout: float = Field(3600.0, gt=0, description="seconds one attempt of a job may run")
     max_attempts: int = Field(3, ge=1, description="starts of a job before it fails for good")
     cancel_grace: float = Field(
@@ -73,6 +92,15 @@ class Settings(BaseSettings):
         7 * 24 * 3600.0, gt=0, description="seconds finished jobs and results are kept"
     )
     purge_interval: float = Field(600.0, gt=0, description="seconds between purges")
+    reconcile_interval: float = Field(
+        5.0,
+        gt=0,
+        description="seconds between passes of the reconciler, which retries failed store writes"
+        " and re-queues or fails jobs they left behind",
+    )
+    store_retry_after: int = Field(
+        10, ge=1, description="Retry-After (seconds) of a 503 for a store that cannot be written"
+    )
 
     api_keys: Annotated[list[str], NoDecode] = Field(
         default_factory=list, description="comma-separated keys; empty: no authentication"
@@ -80,15 +108,55 @@ class Settings(BaseSettings):
     cors_origins: Annotated[list[str], NoDecode] = Field(
         default_factory=list, description="comma-separated origins allowed by CORS"
     )
+    metrics_require_key: bool = Field(
+        False, description="with API keys configured, /metrics asks for one too"
+    )
+    public_url: str | None = Field(
+        None,
+        pattern=r"^https?://[^/?#]+(/[^?#]*)?$",
+        description="the service's public base URL, used in links and Location headers; none:"
+        " the request's own, with its Host checked against trusted_hosts",
+    )
+    trusted_hosts: Annotated[list[str], NoDecode] = Field(
+        default_factory=list,
+        description="comma-separated Host names the service answers (e.g. 'api.example.org,"
+        " *.example.org'); empty: any (set it, or public_url, when the port is public)",
+    )
+    max_picture_pixels: int = Field(
+        4096 * 4096, ge=64 * 64, description="width x height of a rendered PNG/SVG picture"
+    )
+    render_workers: int = Field(
+        2, ge=1, le=64, description="pictures rendered at once (a pool apart from store work)"
+    )
+    render_cache_bytes: int = Field(
+        64 * 1024 * 1024, ge=0, description="memory of the rendered-picture cache (0: no cache)"
+    )
+    scheduler_tls_ca: Path | None = Field(
+        None, description="CA file the Dask scheduler's certificate is checked against (tls://)"
+    )
+    scheduler_tls_cert: Path | None = Field(
+        None, description="client certificate presented to a tls:// Dask scheduler"
+    )
+    scheduler_tls_key: Path | None = Field(None, description="private key of scheduler_tls_cert")
     log_level: str = Field("info", description="logging level of the service")
 
-    @field_validator("api_keys", "cors_origins", mode="before")
+    @field_validator("api_keys", "cors_origins", "trusted_hosts", mode="before")
     @classmethod
     def _split(cls, value: object) -> object:
         # Environment values are comma-separated lists, not JSON.
         if isinstance(value, str):
             return [item.strip() for item in value.split(",") if item.strip()]
         return value
+
+    @property
+    def ga_work_limit(self) -> float:
+        """The GA work one job may buy: ``max_ga_work``, and never more than ``job_timeout``
+        seconds at ``ga_rate``, so admission cannot accept a job sure to run out of time.
+
+        >>> Settings(max_ga_work=1e10, ga_rate=1e6, job_timeout=60, _env_file=None).ga_work_limit
+        60000000.0
+        """
+        return min(self.max_ga_work, self.ga_rate * self.job_timeout)
 
     @property
     def database(self) -> Path:

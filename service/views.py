@@ -37,7 +37,10 @@ def link(
 
 
 def base_url(request: Request) -> str:
-    return str(request.base_url).rstrip("/")
+    """The service's base URL for links: the configured ``public_url``, else the request's own
+    (whose Host the trusted-hosts check has accepted)."""
+    public: str | None = request.app.state.settings.public_url
+    return (public or str(request.base_url)).rstrip("/")
 
 
 def job_links(base: str, record: JobRecord) -> list[dict[str, Any]]:

@@ -5,7 +5,8 @@ somewhere else than the event loop and reports to an :class:`Events` sink, on th
 ``started`` once per run, ``progress`` any number of times, then exactly one ``finished`` with an
 :class:`Outcome` for every task submitted, whether it succeeded, failed, crashed its worker, ran
 out of time or was cancelled. Retrying is the caller's business. Every implementation passes the
-contract suite in ``tests/service/test_backend_contract.py``.
+contract suite in ``tests/service/test_backend_contract.py``; :mod:`service.jobs.factory` builds
+one from the settings (this interface imports no implementation).
 
 A runner is ``runner(payload, progress, should_stop) -> (data, meta)`` where ``progress(percent,
 message)`` reports, ``should_stop()`` is cheap and true once the task is cancelled, ``data`` is the
@@ -19,13 +20,9 @@ import enum
 import importlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Protocol
-
-if TYPE_CHECKING:
-    from ..settings import Settings
+from typing import Any, Protocol
 
 __all__ = [
-    "BACKENDS",
     "BackendStats",
     "ComputeBackend",
     "Events",
@@ -35,7 +32,6 @@ __all__ = [
     "Runner",
     "Task",
     "TaskError",
-    "make_backend",
     "resolve_runner",
 ]
 
@@ -96,6 +92,7 @@ class BackendStats:
     alive: int  #: running worker processes
     busy: int  #: tasks running
     queued: int  #: tasks waiting for a worker
+    ready: int = -1  #: workers warmed up and taking tasks (-1: not known to the backend)
 
 
 class ComputeBackend(Protocol):
@@ -126,41 +123,3 @@ def resolve_runner(name: str) -> Runner:
     module, _, attr = name.partition(":")
     fn: Runner = getattr(importlib.import_module(module), attr)
     return fn
-
-
-def _local(settings: Settings) -> ComputeBackend:
-    from .local import LocalBackend
-
-    return LocalBackend(
-        workers=settings.workers, cancel_grace=settings.cancel_grace, nice=settings.worker_nice
-    )
-
-
-def _dask(settings: Settings) -> ComputeBackend:
-    try:
-        from .dask import DaskBackend
-    except ImportError as exc:  # the optional extra is missing
-        raise ValueError(
-            f"the dask backend needs the dask extra (pip install 'evomesh[dask]'): {exc}"
-        ) from exc
-    return DaskBackend(
-        settings.scheduler,
-        workers=settings.workers,
-        cancel_grace=settings.cancel_grace,
-        stop_poll=settings.stop_poll,
-        reconnect_timeout=settings.scheduler_timeout,
-    )
-
-
-#: Backend factories by name (``Settings.backend``).
-BACKENDS: dict[str, Callable[[Settings], ComputeBackend]] = {"local": _local, "dask": _dask}
-
-
-def make_backend(settings: Settings) -> ComputeBackend:
-    try:
-        factory = BACKENDS[settings.backend]
-    except KeyError:
-        raise ValueError(
-            f"backend {settings.backend!r} is not available; choose one of {sorted(BACKENDS)}"
-        ) from None
-    return factory(settings)

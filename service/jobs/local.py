@@ -31,6 +31,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
 from multiprocessing.process import BaseProcess
+from multiprocessing.reduction import ForkingPickler
 from typing import Any
 
 from .backend import BackendStats, Events, Outcome, OutcomeKind, Task, TaskError, resolve_runner
@@ -65,6 +66,9 @@ def _worker_main(conn: Connection, stop: Any, warmup: bool, nice: int = 0) -> No
         import engine
 
         engine.warmup()  # numba kernels load from cache now, not during the first job
+    # Only now does the supervisor hand us tasks: a job is never "running" (nor its time limit
+    # counting) while its worker compiles kernels.
+    conn.send(("ready", 0))
     while True:
         try:
             msg = conn.recv()
@@ -116,6 +120,7 @@ class _Worker:
     stopping: OutcomeKind | None = None  #: cancelled or timeout, once asked to stop
     timer: asyncio.TimerHandle | None = None
     gone: bool = False  #: its death was handled (loop side)
+    ready: bool = False  #: warmed up: it takes tasks
 
 
 class _Watcher:
@@ -324,12 +329,17 @@ class LocalBackend:
             and (any(w.process.is_alive() for w in self._pool) or self._spawning > 0)
         )
 
+    def warm(self) -> bool:
+        """True once every configured worker has warmed up and takes tasks."""
+        return self.alive() and sum(1 for w in self._pool if w.ready) >= self.workers
+
     def stats(self) -> BackendStats:
         return BackendStats(
             workers=self.workers,
             alive=sum(1 for w in self._pool if w.process.is_alive()),
             busy=sum(1 for w in self._pool if w.task is not None),
             queued=len(self._queue),
+            ready=sum(1 for w in self._pool if w.ready and not w.gone),
         )
 
     def worker_pids(self) -> list[int]:
@@ -346,20 +356,34 @@ class LocalBackend:
         for worker in self._pool:
             if not self._queue:
                 return
-            if worker.task is not None or worker.gone:
-                continue
+            if worker.task is None and not worker.gone and worker.ready:
+                self._hand_over(worker)
+
+    def _hand_over(self, worker: _Worker) -> None:
+        """Give the next task that can be pickled to an idle worker. One that cannot (too deep,
+        unpicklable) ends as an error at once: it never holds the worker."""
+        while self._queue:
             task = self._queue.popleft()
-            worker.task, worker.token = task, next(self._tokens)
+            token = next(self._tokens)
+            try:
+                message = ForkingPickler.dumps((token, task.runner, task.payload))
+            except Exception as exc:  # RecursionError, PicklingError...: the task's fault
+                reason = f"the task could not be handed to a worker: {type(exc).__name__}: {exc}"
+                outcome = Outcome(OutcomeKind.error, reason=reason)
+                self._require_loop().call_soon(self._report, task.job_id, outcome)
+                continue
+            worker.task, worker.token = task, token
             worker.started, worker.stopping = time.perf_counter(), None
             try:
-                worker.conn.send((worker.token, task.runner, task.payload))
+                worker.conn.send_bytes(message)
             except (BrokenPipeError, OSError):
                 # The worker is dying; its sentinel fires next and reports the task as crashed.
-                continue
+                return
             loop = self._require_loop()
             worker.timer = loop.call_later(task.timeout, self._stop, worker, OutcomeKind.timeout)
             assert self._events is not None
             self._events.started(task.job_id)
+            return
 
     def _stop(self, worker: _Worker, why: OutcomeKind) -> None:
         """Ask the worker's task to stop; kill the worker if it has not after the grace period."""
@@ -401,6 +425,11 @@ class LocalBackend:
 
     def _handle(self, worker: _Worker, msg: tuple[Any, ...]) -> None:
         kind, token = msg[0], msg[1]
+        if kind == "ready":
+            worker.ready = True
+            log.info("worker ready", extra={"pid": worker.process.pid})
+            self._dispatch()
+            return
         if token != worker.token or worker.task is None or self._closing:
             return  # a late message of a task already reported
         if kind == "progress":

@@ -19,7 +19,7 @@ import engine
 from engine import EngineError, PipelineParams, SizingParams, SmoothingParams
 
 from ..document import cell_data, mesh_from_document, result_document
-from ..geojson import BoundaryInputError, parse_region
+from ..geojson import build_region
 from .backend import ProgressCallback, TaskError
 
 __all__ = ["mesh", "pack", "quality", "smooth", "unpack"]
@@ -73,10 +73,8 @@ def mesh(
     """The ``mesh`` process: boundary -> mesh -> swap -> smooth."""
     started = time.perf_counter()
     try:
-        parsed = parse_region(
-            payload["boundary"],
-            pointer="/inputs/boundary",
-            wgs84=payload.get("coordinates") == "wgs84",
+        region, to_lonlat = build_region(
+            payload["parts"], wgs84=payload.get("coordinates") == "wgs84"
         )
         smoothing, seed = smoothing_params(payload["smoothing"])
         params = PipelineParams(
@@ -87,20 +85,23 @@ def mesh(
                 payload.get("size_max"),
             ),
             swap=bool(payload["swap"]),
+            # The service's limits (max_triangles, and the GA work as triangles) on the real
+            # mesh, not the engine's own default.
+            max_triangles=int(payload["max_triangles"]),
             smoothing=smoothing,
         )
         result = engine.mesh_then_smooth(
-            parsed.region,
+            region,
             params,
             np.random.default_rng(seed),
             progress=_stage_progress(progress),
             should_stop=should_stop,
         )
-    except (EngineError, BoundaryInputError, ValueError) as exc:
+    except (EngineError, ValueError, KeyError) as exc:
         if isinstance(exc, engine.Cancelled):
             raise
         raise TaskError(str(exc)) from exc
-    doc = result_document(result, parsed.to_lonlat)
+    doc = result_document(result, to_lonlat)
     doc["summary"]["parameters"]["seed"] = seed
     return pack(doc), _figures(result, started)
 

@@ -7,19 +7,29 @@ stored zlib-compressed JSON.
 
 from __future__ import annotations
 
+import functools
 import json
 import sqlite3
 import threading
 import time
 import zlib
-from collections.abc import Collection, Iterator, Sequence
+from collections.abc import Callable, Collection, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import Any, ParamSpec, TypeVar
 
 import orjson
 
-from .store import FINAL, BatchRecord, IdempotencyConflict, JobRecord, JobStatus, NewJob
+from .store import (
+    FINAL,
+    BatchRecord,
+    IdempotencyConflict,
+    JobRecord,
+    JobStatus,
+    NewJob,
+    StoreCorrupt,
+    StoreUnavailable,
+)
 
 __all__ = ["SqliteJobStore"]
 
@@ -41,7 +51,8 @@ CREATE TABLE IF NOT EXISTS jobs (
     updated REAL NOT NULL,
     started REAL,
     finished REAL,
-    meta TEXT NOT NULL DEFAULT '{}'
+    meta TEXT NOT NULL DEFAULT '{}',
+    owner TEXT NOT NULL DEFAULT ''
 );
 CREATE INDEX IF NOT EXISTS jobs_status ON jobs (status, seq);
 CREATE INDEX IF NOT EXISTS jobs_finished ON jobs (finished);
@@ -53,25 +64,42 @@ CREATE TABLE IF NOT EXISTS results (
 CREATE TABLE IF NOT EXISTS batches (
     id TEXT PRIMARY KEY,
     process TEXT NOT NULL,
-    created REAL NOT NULL
+    created REAL NOT NULL,
+    owner TEXT NOT NULL DEFAULT ''
 );
 CREATE TABLE IF NOT EXISTS heartbeat (id INTEGER PRIMARY KEY CHECK (id = 1), at REAL NOT NULL);
 """
 
 _COLUMNS = (
     "id, process, status, created, updated, started, finished, progress, message, attempts, "
-    "seed, batch_id, meta"
+    "seed, batch_id, meta, owner"
 )
+#: Columns added since the first release, created on opening an older file.
+_ADDED = {
+    "jobs": {"owner": "TEXT NOT NULL DEFAULT ''"},
+    "batches": {"owner": "TEXT NOT NULL DEFAULT ''"},
+}
 _UNFINISHED = (JobStatus.accepted.value, JobStatus.running.value)
+P = ParamSpec("P")
+T = TypeVar("T")
 
 
 def _record(row: sqlite3.Row | tuple[Any, ...]) -> JobRecord:
     (job_id, process, status, created, updated, started, finished, progress, message, attempts,
-     seed, batch_id, meta) = row  # fmt: skip
+     seed, batch_id, meta, owner) = row  # fmt: skip
+    try:
+        state = JobStatus(status)
+    except ValueError:
+        # A row this version did not write: shown as failed (with why), not an error of the list.
+        state, message = JobStatus.failed, f"stored with an unknown status {status!r}"
+    try:
+        figures = json.loads(meta) if meta and meta != "{}" else {}
+    except ValueError:
+        figures = {}
     return JobRecord(
         id=job_id,
         process=process,
-        status=JobStatus(status),
+        status=state,
         created=created,
         updated=updated,
         started=started,
@@ -81,8 +109,35 @@ def _record(row: sqlite3.Row | tuple[Any, ...]) -> JobRecord:
         attempts=attempts,
         seed=seed,
         batch_id=batch_id,
-        meta=json.loads(meta) if meta and meta != "{}" else {},
+        meta=figures if isinstance(figures, dict) else {},
+        owner=owner,
     )
+
+
+def _translated(method: Callable[P, T]) -> Callable[P, T]:
+    """SQLite's errors as the store's: a write that failed is :class:`StoreUnavailable` (disk
+    full, I/O error, locked), a file that is not a database :class:`StoreCorrupt`."""
+
+    @functools.wraps(method)
+    def call(*args: P.args, **kwargs: P.kwargs) -> T:
+        try:
+            return method(*args, **kwargs)
+        except sqlite3.DatabaseError as exc:
+            store = args[0]
+            assert isinstance(store, SqliteJobStore)
+            code = (getattr(exc, "sqlite_errorcode", None) or 0) & 0xFF
+            if isinstance(exc, sqlite3.OperationalError) or code in _TRANSIENT:
+                raise StoreUnavailable(f"the job store {store.path} failed: {exc}") from exc
+            raise StoreCorrupt(f"the job store {store.path} cannot be read: {exc}") from exc
+
+    return call
+
+
+#: SQLite result codes of a write that may succeed later.
+_TRANSIENT = frozenset(
+    getattr(sqlite3, name, -1)
+    for name in ("SQLITE_FULL", "SQLITE_IOERR", "SQLITE_BUSY", "SQLITE_LOCKED", "SQLITE_CANTOPEN")
+)
 
 
 def _pack(obj: Any) -> bytes:
@@ -113,9 +168,26 @@ class SqliteJobStore:
         self._all: list[sqlite3.Connection] = []
         self._lock = threading.Lock()
         self._closed = False
-        conn = self._conn()
-        conn.execute("PRAGMA journal_mode=WAL")
-        conn.executescript(_SCHEMA)
+        try:
+            conn = self._conn()
+            conn.execute("PRAGMA journal_mode=WAL")
+            conn.executescript(_SCHEMA)
+            for table, columns in _ADDED.items():
+                have = {row[1] for row in conn.execute(f"PRAGMA table_info({table})")}
+                for name, decl in columns.items():
+                    if name not in have:
+                        conn.execute(f"ALTER TABLE {table} ADD COLUMN {name} {decl}")
+            conn.execute("SELECT COUNT(*) FROM jobs").fetchone()
+        except sqlite3.DatabaseError as exc:
+            self.close()
+            if isinstance(exc, sqlite3.OperationalError):
+                raise StoreUnavailable(
+                    f"the job store {self.path} cannot be opened: {exc}"
+                ) from None
+            raise StoreCorrupt(
+                f"{self.path} is not a readable job store ({exc}); move it aside to start with"
+                " an empty one"
+            ) from None
 
     # -- connections -------------------------------------------------------------------------
     def _conn(self) -> sqlite3.Connection:
@@ -158,7 +230,7 @@ class SqliteJobStore:
     def _insert(self, conn: sqlite3.Connection, job: NewJob, now: float) -> None:
         conn.execute(
             "INSERT INTO jobs (id, process, status, inputs, seed, batch_id, idempotency_key,"
-            " request_hash, created, updated) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+            " request_hash, created, updated, owner) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
             (
                 job.id,
                 job.process,
@@ -170,9 +242,11 @@ class SqliteJobStore:
                 job.request_hash,
                 now,
                 now,
+                job.owner,
             ),
         )
 
+    @_translated
     def create(self, job: NewJob) -> tuple[JobRecord, bool]:
         now = self._clock()
         with self._write() as conn:
@@ -194,54 +268,71 @@ class SqliteJobStore:
             updated=now,
             seed=job.seed,
             batch_id=job.batch_id,
+            owner=job.owner,
         ), True
 
-    def create_batch(self, batch_id: str, process: str, jobs: Sequence[NewJob]) -> BatchRecord:
+    @_translated
+    def create_batch(
+        self, batch_id: str, process: str, jobs: Sequence[NewJob], owner: str = ""
+    ) -> BatchRecord:
         now = self._clock()
         with self._write() as conn:
             conn.execute(
-                "INSERT INTO batches (id, process, created) VALUES (?, ?, ?)",
-                (batch_id, process, now),
+                "INSERT INTO batches (id, process, created, owner) VALUES (?, ?, ?, ?)",
+                (batch_id, process, now, owner),
             )
             for job in jobs:
                 self._insert(conn, job, now)
-        return BatchRecord(batch_id, now, process, tuple(j.id for j in jobs))
+        return BatchRecord(batch_id, now, process, tuple(j.id for j in jobs), owner)
 
     # -- reads -------------------------------------------------------------------------------
+    @_translated
     def get(self, job_id: str) -> JobRecord | None:
         row = (
             self._conn().execute(f"SELECT {_COLUMNS} FROM jobs WHERE id = ?", (job_id,)).fetchone()
         )
         return _record(row) if row else None
 
+    @_translated
     def batch(self, batch_id: str) -> BatchRecord | None:
         conn = self._conn()
         row = conn.execute(
-            "SELECT process, created FROM batches WHERE id = ?", (batch_id,)
+            "SELECT process, created, owner FROM batches WHERE id = ?", (batch_id,)
         ).fetchone()
         if row is None:
             return None
         ids = conn.execute(
             "SELECT id FROM jobs WHERE batch_id = ? ORDER BY seq", (batch_id,)
         ).fetchall()
-        return BatchRecord(batch_id, row[1], row[0], tuple(r[0] for r in ids))
+        return BatchRecord(batch_id, row[1], row[0], tuple(r[0] for r in ids), row[2])
 
+    @_translated
     def inputs(self, job_id: str) -> dict[str, Any] | None:
         row = self._conn().execute("SELECT inputs FROM jobs WHERE id = ?", (job_id,)).fetchone()
         if row is None:
             return None
-        value: dict[str, Any] = json.loads(zlib.decompress(row[0]))
+        try:
+            value = json.loads(zlib.decompress(row[0]))
+        except (zlib.error, ValueError, RecursionError) as exc:
+            raise StoreCorrupt(f"the stored input of job {job_id} cannot be read: {exc}") from None
+        if not isinstance(value, dict):
+            raise StoreCorrupt(f"the stored input of job {job_id} is not an object")
         return value
 
+    @_translated
     def search(
         self,
         *,
         status: Collection[JobStatus] = (),
         process: Collection[str] = (),
+        owner: str | None = None,
         limit: int = 10,
         offset: int = 0,
     ) -> tuple[list[JobRecord], int]:
         where, args = [], []
+        if owner is not None:
+            where.append("owner = ?")
+            args.append(owner)
         if status:
             where.append(f"status IN ({', '.join('?' * len(status))})")
             args += [JobStatus(s).value for s in status]
@@ -257,6 +348,7 @@ class SqliteJobStore:
         ).fetchall()
         return [_record(r) for r in rows], int(total)
 
+    @_translated
     def records(self, job_ids: Sequence[str]) -> list[JobRecord]:
         found: dict[str, JobRecord] = {}
         conn = self._conn()
@@ -269,12 +361,14 @@ class SqliteJobStore:
             found.update((r[0], _record(r)) for r in rows)
         return [found[i] for i in ids if i in found]
 
+    @_translated
     def result(self, job_id: str) -> bytes | None:
         row = (
             self._conn().execute("SELECT data FROM results WHERE job_id = ?", (job_id,)).fetchone()
         )
         return bytes(row[0]) if row else None
 
+    @_translated
     def unfinished(self) -> list[JobRecord]:
         rows = (
             self._conn()
@@ -285,6 +379,7 @@ class SqliteJobStore:
         )
         return [_record(r) for r in rows]
 
+    @_translated
     def counts(self) -> dict[JobStatus, int]:
         out = dict.fromkeys(JobStatus, 0)
         for status, n in self._conn().execute("SELECT status, COUNT(*) FROM jobs GROUP BY status"):
@@ -296,6 +391,7 @@ class SqliteJobStore:
         with self._write() as conn:
             return conn.execute(sql, args).rowcount > 0
 
+    @_translated
     def mark_running(self, job_id: str, attempt: int) -> bool:
         now = self._clock()
         return self._update(
@@ -304,6 +400,7 @@ class SqliteJobStore:
             (attempt, now, now, job_id),
         )
 
+    @_translated
     def set_progress(self, job_id: str, progress: int, message: str) -> bool:
         return self._update(
             "UPDATE jobs SET progress = ?, message = ?, updated = ?"
@@ -311,6 +408,7 @@ class SqliteJobStore:
             (max(0, min(100, int(progress))), message, self._clock(), job_id),
         )
 
+    @_translated
     def finish(self, job_id: str, result: bytes, meta: dict[str, Any]) -> bool:
         now = self._clock()
         with self._write() as conn:
@@ -325,6 +423,7 @@ class SqliteJobStore:
                 )
         return done > 0
 
+    @_translated
     def fail(self, job_id: str, reason: str) -> bool:
         now = self._clock()
         return self._update(
@@ -333,6 +432,7 @@ class SqliteJobStore:
             (reason, now, now, job_id),
         )
 
+    @_translated
     def requeue(self, job_id: str, message: str, *, keep_attempt: bool = True) -> bool:
         drop = "" if keep_attempt else ", attempts = MAX(attempts - 1, 0)"
         return self._update(
@@ -341,6 +441,7 @@ class SqliteJobStore:
             (message, self._clock(), job_id),
         )
 
+    @_translated
     def dismiss(self, job_id: str) -> JobRecord | None:
         now = self._clock()
         with self._write() as conn:
@@ -353,6 +454,7 @@ class SqliteJobStore:
             row = conn.execute(f"SELECT {_COLUMNS} FROM jobs WHERE id = ?", (job_id,)).fetchone()
         return _record(row) if row else None
 
+    @_translated
     def purge(self, finished_before: float) -> int:
         final = tuple(s.value for s in FINAL)
         with self._write() as conn:
@@ -366,6 +468,7 @@ class SqliteJobStore:
             )
         return int(n)
 
+    @_translated
     def ping(self) -> None:
         with self._write() as conn:
             conn.execute(

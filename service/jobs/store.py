@@ -21,6 +21,9 @@ __all__ = [
     "JobStatus",
     "JobStore",
     "NewJob",
+    "StoreCorrupt",
+    "StoreError",
+    "StoreUnavailable",
 ]
 
 
@@ -36,6 +39,19 @@ class JobStatus(enum.StrEnum):
 
 #: Statuses a job never leaves (except dismissed, which a finished job may still be given).
 FINAL = frozenset({JobStatus.successful, JobStatus.failed, JobStatus.dismissed})
+
+
+class StoreError(Exception):
+    """The job store failed."""
+
+
+class StoreUnavailable(StoreError):
+    """The store cannot be written now (disk full, I/O error, locked too long): nothing was
+    changed; the same call may succeed later."""
+
+
+class StoreCorrupt(StoreError):
+    """The store (or one stored item) cannot be read: it is not what this service wrote."""
 
 
 class IdempotencyConflict(Exception):
@@ -58,6 +74,7 @@ class NewJob:
     batch_id: str | None = None
     idempotency_key: str | None = None
     request_hash: str | None = None  #: digest of the request the key was first used with
+    owner: str = ""  #: who made it (a digest of the API key; "" without keys)
 
 
 @dataclass(frozen=True)
@@ -77,6 +94,7 @@ class JobRecord:
     seed: int | None = None
     batch_id: str | None = None
     meta: dict[str, Any] = field(default_factory=dict)  #: result figures (e.g. triangles)
+    owner: str = ""  #: who made it (a digest of the API key; "" without keys)
 
 
 @dataclass(frozen=True)
@@ -87,10 +105,15 @@ class BatchRecord:
     created: float
     process: str
     job_ids: tuple[str, ...]
+    owner: str = ""
 
 
 class JobStore(Protocol):
-    """Where jobs live. Status changes are conditional and return whether they applied."""
+    """Where jobs live. Status changes are conditional and return whether they applied.
+
+    A write that cannot be made raises :class:`StoreUnavailable` and changes nothing; a row that
+    cannot be read is reported, never fatal to the others (an unknown status reads as failed).
+    """
 
     def create(self, job: NewJob) -> tuple[JobRecord, bool]:
         """Insert ``job`` as accepted; returns (record, created).
@@ -99,7 +122,9 @@ class JobStore(Protocol):
         returned with ``created`` false; for a different hash :class:`IdempotencyConflict`.
         """
 
-    def create_batch(self, batch_id: str, process: str, jobs: Sequence[NewJob]) -> BatchRecord:
+    def create_batch(
+        self, batch_id: str, process: str, jobs: Sequence[NewJob], owner: str = ""
+    ) -> BatchRecord:
         """Insert a batch and its jobs at once (all or none)."""
 
     def get(self, job_id: str) -> JobRecord | None: ...
@@ -107,17 +132,18 @@ class JobStore(Protocol):
     def batch(self, batch_id: str) -> BatchRecord | None: ...
 
     def inputs(self, job_id: str) -> dict[str, Any] | None:
-        """The resolved inputs the job was created with."""
+        """The resolved inputs the job was created with (:class:`StoreCorrupt` if unreadable)."""
 
     def search(
         self,
         *,
         status: Collection[JobStatus] = (),
         process: Collection[str] = (),
+        owner: str | None = None,
         limit: int = 10,
         offset: int = 0,
     ) -> tuple[list[JobRecord], int]:
-        """Jobs, newest first, and the number matching the filters."""
+        """Jobs, newest first, and the number matching the filters (``owner``: only theirs)."""
 
     def records(self, job_ids: Sequence[str]) -> list[JobRecord]:
         """The records of ``job_ids`` that exist, in the order given."""

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from .figure import WORST_COLOR, render_picture
 from .options import COLORMAP, METRICS, Metric, PictureError, PictureOptions, color_range
+from .pool import RenderPool, picture_options
 
 __all__ = [
     "COLORMAP",
@@ -26,6 +27,8 @@ __all__ = [
     "Metric",
     "PictureError",
     "PictureOptions",
+    "RenderPool",
     "color_range",
+    "picture_options",
     "render_picture",
 ]

@@ -10,16 +10,23 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from ..deps import ManagerDep, SettingsDep, require_api_key
+from ..deps import ManagerDep, OwnerDep, SettingsDep, require_api_key
 from ..jobs.manager import JobManager
+from ..jobs.store import BatchRecord
+from ..middleware import JsonBodyRoute
 from ..problems import Problem
 from ..processes import Prepared, Process, Where, inputs_at
 from ..schemas import BatchInfo
 from ..settings import Settings
 from ..views import base_url, batch_info
-from .processes import QUEUE_FULL, off_loop_if_large
+from .processes import QUEUE_FULL, off_loop
 
-router = APIRouter(prefix="/batches", tags=["Batches"], dependencies=[Depends(require_api_key)])
+router = APIRouter(
+    prefix="/batches",
+    tags=["Batches"],
+    dependencies=[Depends(require_api_key)],
+    route_class=JsonBodyRoute,
+)
 
 
 class BatchRequest(BaseModel):
@@ -27,7 +34,8 @@ class BatchRequest(BaseModel):
     shared parameters, a feature's ``h`` property its size) or ``requests``: execute requests
     whose ``inputs`` are laid over the shared ``inputs``."""
 
-    model_config = ConfigDict(extra="allow")  # GeoJSON foreign members (bbox, name...)
+    # GeoJSON foreign members (bbox, name...) are accepted and dropped, never kept.
+    model_config = ConfigDict(extra="ignore", strict=True)
 
     type: Literal["FeatureCollection"] | None = None
     features: list[dict[str, Any]] | None = Field(None, min_length=1)
@@ -113,7 +121,11 @@ def _prepare_all(body: BatchRequest, process: Process, settings: Settings) -> li
     },
 )
 async def create_batch(
-    body: BatchRequest, request: Request, manager: ManagerDep, settings: SettingsDep
+    body: BatchRequest,
+    request: Request,
+    manager: ManagerDep,
+    settings: SettingsDep,
+    owner: OwnerDep,
 ) -> JSONResponse:
     process = manager.processes.get(body.process)
     if process is None:
@@ -143,35 +155,43 @@ async def create_batch(
             kind="limit-exceeded",
             pointer="/features" if body.features is not None else "/requests",
         )
-    manager.admit(process.id, count)  # refuse early, before the work of preparing every item
-    prepared = await off_loop_if_large(request, _prepare_all, body, process, settings)
-    batch = manager.submit_batch(process, prepared)
+    manager.admit(process.id, count, owner)  # refuse early, before the work of preparing every item
+    prepared = await off_loop(_prepare_all, body, process, settings)
+    batch = manager.submit_batch(process, prepared, owner)
     base = base_url(request)
     doc = batch_info(base, batch, manager.store.records(batch.job_ids))
     return JSONResponse(doc, status_code=201, headers={"Location": f"{base}/batches/{batch.id}"})
 
 
-def _batch_doc(request: Request, manager: JobManager, batch_id: str) -> dict[str, Any]:
+def _batch(manager: JobManager, batch_id: str, owner: str) -> BatchRecord:
+    """The owner's batch; another owner's is not there for them (404, as if unknown)."""
     batch = manager.store.batch(batch_id)
-    if batch is None:
+    if batch is None or batch.owner != owner:
         raise Problem(404, f"there is no batch {batch_id!r}", kind="no-such-batch")
+    return batch
+
+
+def _batch_doc(request: Request, manager: JobManager, batch_id: str, owner: str) -> dict[str, Any]:
+    batch = _batch(manager, batch_id, owner)
     return batch_info(base_url(request), batch, manager.store.records(batch.job_ids))
 
 
 @router.get(
     "/{batchId}", summary="A batch's aggregated status", responses={200: {"model": BatchInfo}}
 )
-async def get_batch(batchId: str, request: Request, manager: ManagerDep) -> JSONResponse:
-    return JSONResponse(_batch_doc(request, manager, batchId))
+async def get_batch(
+    batchId: str, request: Request, manager: ManagerDep, owner: OwnerDep
+) -> JSONResponse:
+    return JSONResponse(_batch_doc(request, manager, batchId, owner))
 
 
 @router.delete(
     "/{batchId}", summary="Dismiss every job of a batch", responses={200: {"model": BatchInfo}}
 )
-async def dismiss_batch(batchId: str, request: Request, manager: ManagerDep) -> JSONResponse:
-    batch = manager.store.batch(batchId)
-    if batch is None:
-        raise Problem(404, f"there is no batch {batchId!r}", kind="no-such-batch")
+async def dismiss_batch(
+    batchId: str, request: Request, manager: ManagerDep, owner: OwnerDep
+) -> JSONResponse:
+    batch = _batch(manager, batchId, owner)
     for job_id in batch.job_ids:
         manager.dismiss(job_id)
-    return JSONResponse(_batch_doc(request, manager, batchId))
+    return JSONResponse(_batch_doc(request, manager, batchId, owner))

@@ -8,20 +8,25 @@ from typing import Annotated
 from fastapi import APIRouter, Depends, Query, Request, Response
 from fastapi.responses import JSONResponse
 
-from ..deps import ManagerDep, StoreDep, require_api_key
+from ..deps import ManagerDep, OwnerDep, SettingsDep, StoreDep, require_api_key
 from ..formats import FORMATS, StoredResult
 from ..jobs.runners import unpack
 from ..jobs.store import JobRecord, JobStatus, JobStore
 from ..problems import Problem
+from ..render import PictureError, RenderPool, picture_options
 from ..schemas import JobList, StatusInfo
 from ..views import base_url, link, status_info
+
+#: Formats that are pictures (their options are checked, and bounded, before loading).
+PICTURES = frozenset({"png", "svg"})
 
 router = APIRouter(prefix="/jobs", tags=["Jobs"], dependencies=[Depends(require_api_key)])
 
 
-def _job(store: JobStore, job_id: str) -> JobRecord:
+def _job(store: JobStore, job_id: str, owner: str) -> JobRecord:
+    """The owner's job; another owner's is not there for them (404, as if unknown)."""
     record = store.get(job_id)
-    if record is None:
+    if record is None or record.owner != owner:
         raise Problem(404, f"there is no job {job_id!r}", kind="no-such-job")
     return record
 
@@ -30,6 +35,7 @@ def _job(store: JobStore, job_id: str) -> JobRecord:
 async def list_jobs(
     request: Request,
     store: StoreDep,
+    owner: OwnerDep,
     status: Annotated[list[JobStatus] | None, Query(description="only these statuses")] = None,
     processID: Annotated[
         list[str] | None, Query(description="only jobs of these processes")
@@ -38,7 +44,7 @@ async def list_jobs(
     offset: Annotated[int, Query(ge=0, le=2**62)] = 0,
 ) -> JSONResponse:
     records, total = store.search(
-        status=status or (), process=processID or (), limit=limit, offset=offset
+        status=status or (), process=processID or (), owner=owner, limit=limit, offset=offset
     )
     base = base_url(request)
     url = request.url
@@ -60,10 +66,10 @@ async def list_jobs(
 
 
 @router.get("/{jobId}", summary="A job's status", responses={200: {"model": StatusInfo}})
-async def get_job(jobId: str, request: Request, store: StoreDep) -> JSONResponse:
+async def get_job(jobId: str, request: Request, store: StoreDep, owner: OwnerDep) -> JSONResponse:
     # Answered straight from the store, without response-model validation: this is the request
     # clients poll, so it must stay fast while workers are busy.
-    return JSONResponse(status_info(base_url(request), _job(store, jobId)))
+    return JSONResponse(status_info(base_url(request), _job(store, jobId, owner)))
 
 
 @router.delete(
@@ -71,7 +77,10 @@ async def get_job(jobId: str, request: Request, store: StoreDep) -> JSONResponse
     summary="Dismiss a job: a queued one never runs, a running one stops, results are deleted",
     responses={200: {"model": StatusInfo}},
 )
-async def dismiss_job(jobId: str, request: Request, manager: ManagerDep) -> JSONResponse:
+async def dismiss_job(
+    jobId: str, request: Request, manager: ManagerDep, owner: OwnerDep
+) -> JSONResponse:
+    _job(manager.store, jobId, owner)
     record = manager.dismiss(jobId)
     if record is None:
         raise Problem(404, f"there is no job {jobId!r}", kind="no-such-job")
@@ -107,6 +116,8 @@ async def get_results(
     jobId: str,
     request: Request,
     store: StoreDep,
+    owner: OwnerDep,
+    settings: SettingsDep,
     f: Annotated[
         str, Query(description=f"result format: {' | '.join(FORMATS)}", max_length=32)
     ] = "json",
@@ -119,13 +130,24 @@ async def get_results(
             kind="invalid-parameter",
             parameter="f",
         )
-    record = _job(store, jobId)
+    if fmt.name in PICTURES:  # checked before anything is loaded
+        try:
+            picture_options(request.query_params, settings.max_picture_pixels)
+        except PictureError as exc:
+            raise Problem(
+                400, exc.message, kind="invalid-parameter", parameter=exc.parameter
+            ) from None
+    record = _job(store, jobId, owner)
     if record.status is not JobStatus.successful:
         raise _not_ready(record)
+    headers = {"Content-Disposition": f'inline; filename="{jobId}{fmt.extension}"'}
+    pool: RenderPool = request.app.state.render_pool
+    key = (jobId, fmt.name, tuple(sorted(request.query_params.multi_items())))
+    if fmt.name != "json" and (cached := pool.cached(key)) is not None:
+        return Response(cached, media_type=fmt.media_type, headers=headers)
     blob = await asyncio.to_thread(store.result, jobId)
     if blob is None:  # dismissed or purged a moment ago
-        raise _not_ready(_job(store, jobId))
-    headers = {"Content-Disposition": f'inline; filename="{jobId}{fmt.extension}"'}
+        raise _not_ready(_job(store, jobId, owner))
     if fmt.name == "json" and "deflate" in request.headers.get("accept-encoding", ""):
         # Stored as zlib, which is HTTP's "deflate": send it as it is.
         headers["Content-Encoding"] = "deflate"
@@ -134,5 +156,8 @@ async def get_results(
     def render() -> bytes:
         return fmt.render(StoredResult(unpack(blob)), request.query_params)
 
-    body = await asyncio.to_thread(render)
+    if fmt.name == "json":
+        body = await asyncio.to_thread(render)
+    else:  # pictures and mesh files: bounded, and made once per job and options
+        body = await pool.render(key, render)
     return Response(body, media_type=fmt.media_type, headers=headers)

@@ -8,7 +8,7 @@ from typing import Any
 from fastapi import APIRouter, Request, Response
 from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
 
-from ..deps import MetricsDep
+from ..deps import MetricsDep, SettingsDep, require_api_key
 from ..problems import Problem
 from ..schemas import Conformance, LandingPage
 from ..views import REL_PROCESS, base_url, link
@@ -88,6 +88,13 @@ async def ready(request: Request) -> dict[str, Any]:
     if not manager.backend.alive():
         raise Problem(503, "no worker is alive", headers={"Retry-After": "5"})
     stats = manager.backend.stats()
+    if 0 <= stats.ready < stats.workers:
+        # A job handed to a cold worker would wait for its kernels to compile.
+        raise Problem(
+            503,
+            f"{stats.ready} of {stats.workers} workers have warmed up",
+            headers={"Retry-After": "5"},
+        )
     return {
         "status": "ready",
         "backend": manager.backend.name,
@@ -103,5 +110,7 @@ async def ready(request: Request) -> dict[str, Any]:
     response_class=Response,
     responses={200: {"content": {"text/plain": {"schema": {"type": "string"}}}}},
 )
-def metrics(metrics: MetricsDep) -> Response:
+async def metrics(request: Request, metrics: MetricsDep, settings: SettingsDep) -> Response:
+    if settings.metrics_require_key:
+        await require_api_key(request, settings)
     return Response(generate_latest(metrics.registry), media_type=CONTENT_TYPE_LATEST)

@@ -1,16 +1,17 @@
 """``/processes``: the process list, their OGC descriptions, and execution (always async)."""
 
-import asyncio
 from collections.abc import Callable
 from typing import Annotated, Any, TypeVar
 
-from fastapi import APIRouter, Depends, Header, Request
+import anyio.to_thread
+from fastapi import APIRouter, Header, Request
 from fastapi.responses import JSONResponse
 
-from ..deps import ManagerDep, SettingsDep, require_api_key
+from ..deps import ManagerDep, OwnerDep, SettingsDep
 from ..inputs import ExecuteRequest
 from ..jobs.manager import request_digest
 from ..jobs.store import IdempotencyConflict
+from ..middleware import JsonBodyRoute
 from ..problems import Problem
 from ..processes import PROCESSES, Process, inputs_at
 from ..schemas import ProcessDescription, ProcessList, StatusInfo
@@ -61,19 +62,13 @@ def _process_links(process: Process, base: str) -> list[dict[str, Any]]:
     ]
 
 
-#: Requests up to this size are validated on the event loop: a thread hop (and the GIL hand-over
-#: it causes) costs more than parsing a small region.
-INLINE_BYTES = 32 * 1024
-
 T = TypeVar("T")
 
 
-async def off_loop_if_large(request: Request, fn: Callable[..., T], *args: Any) -> T:
-    """``fn(*args)``, in a thread when the request body is large (parsing it takes a while)."""
-    size = int(request.headers.get("content-length") or INLINE_BYTES + 1)
-    if size <= INLINE_BYTES:
-        return fn(*args)
-    return await asyncio.to_thread(fn, *args)
+async def off_loop(fn: Callable[..., T], *args: Any) -> T:
+    """``fn(*args)`` in a thread: preparing a request parses the region and runs the engine's
+    estimate, whose time depends on the shape, not only on the body's size."""
+    return await anyio.to_thread.run_sync(fn, *args)
 
 
 def _unknown(process_id: str, processes: dict[str, Process]) -> Problem:
@@ -122,12 +117,15 @@ def _execute_route(router: APIRouter, process: Process) -> None:
         request: Request,
         manager: ManagerDep,
         settings: SettingsDep,
+        owner: OwnerDep,
         idempotency_key: IdempotencyKey = None,
     ) -> JSONResponse:
         request_body: ExecuteRequest = body
-        prepared = await off_loop_if_large(
-            request, process.prepare, request_body.inputs, settings, inputs_at("/inputs")
+        prepared = await off_loop(
+            process.prepare, request_body.inputs, settings, inputs_at("/inputs")
         )
+        # The validated request (its depth bounded by the body reader), not the raw bytes: the
+        # same JSON value in another key order is the same request.
         digest = (
             request_digest(process.id, request_body.model_dump(mode="json"))
             if idempotency_key
@@ -135,7 +133,11 @@ def _execute_route(router: APIRouter, process: Process) -> None:
         )
         try:
             record, created = manager.submit(
-                process, prepared, idempotency_key=idempotency_key, request_hash=digest
+                process,
+                prepared,
+                idempotency_key=idempotency_key,
+                request_hash=digest,
+                owner=owner,
             )
         except IdempotencyConflict as exc:
             raise Problem(
@@ -158,7 +160,6 @@ def _execute_route(router: APIRouter, process: Process) -> None:
         summary=f"Execute {process.id} (asynchronously)",
         response_model=None,
         responses=_EXECUTE_RESPONSES,
-        dependencies=[Depends(require_api_key)],
         operation_id=f"execute_{process.id}",
     )
 
@@ -166,7 +167,7 @@ def _execute_route(router: APIRouter, process: Process) -> None:
 def build_router(processes: dict[str, Process] | None = None) -> APIRouter:
     """The ``/processes`` router for a set of processes (by default :data:`PROCESSES`)."""
     procs = PROCESSES if processes is None else processes
-    router = APIRouter(prefix="/processes", tags=["Processes"])
+    router = APIRouter(prefix="/processes", tags=["Processes"], route_class=JsonBodyRoute)
 
     @router.get("", response_model=ProcessList, summary="The processes")
     def list_processes(request: Request) -> dict[str, Any]:

@@ -14,6 +14,7 @@ import pytest
 from fastapi import FastAPI
 
 from service.app import create_app
+from service.jobs.store import JobStore
 from service.processes import PROCESSES, Process
 from service.settings import Settings
 
@@ -59,15 +60,22 @@ async def make_client(tmp_path: Path) -> AsyncIterator[ClientFactory]:
     """``await make_client(**settings)``: a client of a started app (stopped at teardown)."""
     async with AsyncExitStack() as stack:
 
-        async def factory(data_dir: Path | None = None, **overrides: Any) -> httpx.AsyncClient:
+        async def factory(
+            data_dir: Path | None = None, store: JobStore | None = None, **overrides: Any
+        ) -> httpx.AsyncClient:
             settings = make_settings(data_dir or tmp_path / "data", **overrides)
-            app = create_app(settings, processes=TEST_PROCESSES)
+            app = create_app(settings, processes=TEST_PROCESSES, store=store)
             await stack.enter_async_context(app.router.lifespan_context(app))
             client = httpx.AsyncClient(
                 transport=httpx.ASGITransport(app=app), base_url="http://testserver"
             )
             await stack.enter_async_context(client)
             client.app = app  # type: ignore[attr-defined]
+            # Workers take tasks once warm (kernels loaded), and /ready says so: wait for it,
+            # so that tests see a ready service.
+            with anyio.fail_after(180):
+                while (await client.get("/ready")).status_code != 200:
+                    await anyio.sleep(0.05)
             return client
 
         yield factory

@@ -41,10 +41,15 @@ async def test_validation_errors_are_problems_with_pointers(client: httpx.AsyncC
 async def test_malformed_json_and_non_finite_numbers(client: httpx.AsyncClient) -> None:
     headers = {"Content-Type": "application/json"}
     r = await client.post("/processes/mesh/execution", content=b'{"inputs": ', headers=headers)
-    assert_problem(r, 422)
-    text = '{"inputs": {"boundary": ' + json.dumps(SQUARE) + ', "size": NaN}}'
+    doc = assert_problem(r, 400, "invalid-json")
+    assert (doc["line"], doc["column"]) == (1, 12)
+    assert "pointer" not in doc  # an offset is not a JSON pointer
+    # NaN is not JSON: refused where it stands (line 2 here), not turned into a number.
+    text = '{"inputs": {"boundary": ' + json.dumps(SQUARE) + ',\n "size": NaN}}'
     r = await client.post("/processes/mesh/execution", content=text, headers=headers)
-    assert_problem(r, 422, pointer="/inputs/size")
+    doc = assert_problem(r, 400, "invalid-json")
+    assert (doc["line"], doc["column"]) == (2, 10)
+    assert "line 2, column 10" in doc["detail"]
 
 
 async def test_self_intersection_points_at_the_vertex(client: httpx.AsyncClient) -> None:

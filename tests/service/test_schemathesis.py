@@ -14,6 +14,7 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
+import httpx
 import pytest
 import schemathesis
 import uvicorn
@@ -68,7 +69,13 @@ def base_url(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
         assert thread.is_alive(), "the server did not start"
         assert time.monotonic() < deadline, "the server did not start in 30 s"
         time.sleep(0.02)
-    yield f"http://127.0.0.1:{port}"
+    url = f"http://127.0.0.1:{port}"
+    # /ready is 503 (rightly) until the workers have warmed up: test the service once it is.
+    deadline = time.monotonic() + 180
+    while httpx.get(f"{url}/ready").status_code != 200:
+        assert time.monotonic() < deadline, "the workers did not warm up in 180 s"
+        time.sleep(0.1)
+    yield url
     server.should_exit = True
     thread.join(30)
 
