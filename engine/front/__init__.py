@@ -27,8 +27,9 @@ meshes.
 
 Every triangle is checked against the front: its corners must lie inside the front's wedges,
 its new edges may not cross or touch a front edge, no front vertex may lie in it, and a new
-point must keep its distance from the front. A uniform grid of front edges
-makes each check local, so the cost is O(n) overall for bounded size gradation.
+point must keep its distance from the front. A uniform grid of front edges, with a loose
+quadtree in each cell for edges far shorter than a cell (see :mod:`engine.front.index`), makes
+each check local, so the cost stays near O(n) even where the size spans orders of magnitude.
 
 When no slot can advance under the normal rules, the rules are relaxed once; if the front is still
 stuck the remaining cavities are filled by :func:`engine.cavity.fill_cavities` (constrained

@@ -6,13 +6,16 @@ from __future__ import annotations
 import math
 
 # Slot table columns (LAYER: how many triangles separate the slot's edge from the boundary;
-# CURVED: 1 when the front descends from a curved stretch of boundary, see driver._curved_edges).
-VERT, NEXT, PREV, VER, FAIL, ALIVE, LAYER, CURVED = 0, 1, 2, 3, 4, 5, 6, 7
-N_COLS = 8
+# CURVED: 1 when the front descends from a curved stretch of boundary, see driver._curved_edges;
+# STAMP: the last index query that found the slot, so a query reports it once).
+VERT, NEXT, PREV, VER, FAIL, ALIVE, LAYER, CURVED, STAMP = range(9)
+N_COLS = 9
+# Point table column holding the size field at the point (after x and y).
+SIZE = 2
 # Scalar state indices: points, triangles, slots, index entries and heap entries used; live
 # slots; the query stamp; whether (and for how many more triangles) the rules are relaxed;
-# triangles made.
-NP, NT, NS, NE, NH, LIVE, QUERY, RELAXED, RELAX_LEFT, OPS = range(10)
+# triangles made; index tree nodes used.
+NP, NT, NS, NE, NH, LIVE, QUERY, RELAXED, RELAX_LEFT, OPS, NN = range(11)
 N_STATE = 16
 # Kernel status codes.
 DONE, BUDGET, STUCK, GROW = 0, 1, 2, 3

@@ -33,6 +33,7 @@ from .constants import (
     NE,
     NEXT,
     NH,
+    NN,
     NO_ROOM,
     NP,
     NS,
@@ -41,6 +42,7 @@ from .constants import (
     PREV,
     RELAX_LEFT,
     RELAXED,
+    SIZE,
     STUCK,
     VER,
     VERT,
@@ -65,16 +67,16 @@ def _run(fr: Front, ix: Index, hp: Heap, sf: SizeTuple, budget: int) -> int:
             or st[NS] + 4 > slots.shape[0]
         ):
             return GROW
-        if fr.stamp.shape[0] < slots.shape[0] or ix.hits.shape[0] < slots.shape[0]:
+        if ix.hits.shape[0] < slots.shape[0]:
             return GROW
         if st[NH] + 64 > hp.key.shape[0] and (
             not queue.rebuild(fr, hp) or st[NH] + 64 > hp.key.shape[0]
         ):
             return GROW
-        if st[NE] + 4096 > ix.ent.shape[0]:
+        if st[NE] + 4096 > ix.ent.shape[0] or st[NN] + 4096 > ix.node.shape[0]:
             if not index.rebuild(fr, ix):
                 return GROW
-            if st[NE] + 4096 > ix.ent.shape[0]:
+            if st[NE] + 4096 > ix.ent.shape[0] or st[NN] + 4096 > ix.node.shape[0]:
                 return GROW
         if st[NH] == 0:
             if st[RELAXED] > 0:
@@ -108,10 +110,8 @@ def _run(fr: Front, ix: Index, hp: Heap, sf: SizeTuple, budget: int) -> int:
 
 @nb.njit(cache=True)
 def _init(fr: Front, ix: Index, hp: Heap) -> bool:
-    for s in range(fr.st[NS]):
-        if not index.insert(fr, ix, s):
-            return False
-    return queue.rebuild(fr, hp)
+    """Index and queue every slot; False when the index or the heap is too small."""
+    return index.rebuild(fr, ix) and queue.rebuild(fr, hp)
 
 
 _A = TypeVar("_A", bound=np.ndarray[Any, Any])
@@ -129,19 +129,17 @@ def _grown(fr: Front, ix: Index, hp: Heap, budget: int) -> tuple[Front, Index, H
     """The state with room for ``budget`` more triangles (doubling what is short)."""
     st = fr.st
     slots = _bigger(fr.slots, int(st[NS]), 2 * budget + 8)
-    stamp = fr.stamp
-    if len(stamp) < len(slots):
-        stamp = np.zeros(len(slots), dtype=np.int64)
-        stamp[: len(fr.stamp)] = fr.stamp
     fr = fr._replace(
         pts=_bigger(fr.pts, int(st[NP]), budget + 8),
-        hv=_bigger(fr.hv, int(st[NP]), budget + 8),
         tris=_bigger(fr.tris, int(st[NT]), budget + 8),
         slots=slots,
-        stamp=stamp,
     )
     hits = ix.hits if len(ix.hits) >= len(slots) else np.empty(len(slots), dtype=np.int64)
-    ix = ix._replace(ent=_bigger(ix.ent, int(st[NE]), 40 * budget + 8192), hits=hits)
+    ix = ix._replace(
+        ent=_bigger(ix.ent, int(st[NE]), 40 * budget + 8192),
+        node=_bigger(ix.node, int(st[NN]), 4 * budget + 8192),
+        hits=hits,
+    )
     hp = Heap(
         key=_bigger(hp.key, int(st[NH]), 10 * budget + 1024),
         ref=_bigger(hp.ref, int(st[NH]), 10 * budget + 1024),
@@ -150,7 +148,8 @@ def _grown(fr: Front, ix: Index, hp: Heap, budget: int) -> tuple[Front, Index, H
 
 
 def _new_index(points: FloatArray, field: SizeField, n_edges: int, n_slots: int) -> Index:
-    """A grid of cells of the field's size (at most 2048 along the longer side)."""
+    """A grid of cells of the field's size (at most 2048 along the longer side), with trees
+    for edges narrower than ``index.FINE_EDGE`` cells."""
     lo, hi = points.min(axis=0), points.max(axis=0)
     span = float(max(hi[0] - lo[0], hi[1] - lo[1], 1e-300))
     cell = max(field.size, span / 2048.0)
@@ -158,13 +157,15 @@ def _new_index(points: FloatArray, field: SizeField, n_edges: int, n_slots: int)
     nx = math.ceil((hi[0] - lo[0] + 2 * pad) / cell) + 1
     ny = math.ceil((hi[1] - lo[1] + 2 * pad) / cell) + 1
     return Index(
-        head=np.full(nx * ny, -1, dtype=np.int64),
+        head=np.full((nx * ny, 2), -1, dtype=np.int64),
         ent=np.empty((16 * n_edges + 8192, 3), dtype=np.int64),
         x0=float(lo[0] - pad),
         y0=float(lo[1] - pad),
         cell=float(cell),
         nx=nx,
         ny=ny,
+        node=np.empty((4 * n_edges + 8192, 5), dtype=np.int64),
+        fine=index.FINE_EDGE * float(cell),
         hits=np.empty(n_slots, dtype=np.int64),
         cand=np.empty(MAX_CANDIDATES, dtype=np.int64),
     )
@@ -195,10 +196,9 @@ def _new_front(boundary: Discretized, field: SizeField, est: int) -> Front:
     """The front of the boundary's loops, with room for about ``est`` triangles."""
     points, edges = boundary.points, boundary.edges
     n0 = len(points)
-    pts = np.empty((est // 2 + n0 + 16, 2))
-    pts[:n0] = points
-    hv = np.empty(len(pts))
-    hv[:n0] = boundary.sizes
+    pts = np.empty((est // 2 + n0 + 16, 3))
+    pts[:n0, :2] = points
+    pts[:n0, SIZE] = boundary.sizes
     slots = np.zeros((2 * len(pts), N_COLS), dtype=np.int64)
     start_of = np.full(n0, -1, dtype=np.int64)
     start_of[edges[:, 0]] = np.arange(len(edges))
@@ -212,11 +212,9 @@ def _new_front(boundary: Discretized, field: SizeField, est: int) -> Front:
     st[NP], st[NS], st[LIVE] = n0, len(edges), len(edges)
     return Front(
         pts=pts,
-        hv=hv,
         tris=np.empty((est, 3), dtype=np.int64),
         slots=slots,
         st=st,
-        stamp=np.zeros(len(slots), dtype=np.int64),
         size=float(field.size),
     )
 
@@ -248,8 +246,11 @@ def advance_front(
     ix = _new_index(points, field, len(edges), len(fr.slots))
     n_heap = 4 * len(edges) + 1024
     hp = Heap(key=np.empty(n_heap), ref=np.empty((n_heap, 2), dtype=np.int64))
-    if not _init(fr, ix, hp):
-        raise MeshingError("front initialisation ran out of room")
+    while not _init(fr, ix, hp):
+        ix = ix._replace(
+            ent=_bigger(ix.ent, len(ix.ent), len(ix.ent)),
+            node=_bigger(ix.node, len(ix.node), len(ix.node)),
+        )
     sf = field.as_tuple()
     st = fr.st
     # Chunks no larger than the mesh, so small jobs do not allocate for large ones.
@@ -269,7 +270,7 @@ def advance_front(
                 limit=max_triangles,
                 estimate=int(st[NT]),
             )
-    pts_out = fr.pts[: int(st[NP])].copy()
+    pts_out = fr.pts[: int(st[NP]), :2].copy()
     tris_out = fr.tris[: int(st[NT])].copy()
     if status == STUCK:
         ns = int(st[NS])

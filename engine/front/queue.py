@@ -17,6 +17,7 @@ from .constants import (
     NH,
     NS,
     PREV,
+    SIZE,
     T_CLOSE,
     T_FLAT,
     TWO_PI,
@@ -102,13 +103,13 @@ def slot_key(fr: Front, s: int) -> float:
     row, while a hole's front is all reflex angles; left to the angle order it was reached
     after a layer or two, and a coarse row met its fine edges with boundary nodes a triangle
     short (two of 93 degrees: no node move mends that)."""
-    slots, pts, hv = fr.slots, fr.pts, fr.hv
+    slots, pts = fr.slots, fr.pts
     a, b = slots[s, VERT], slots[slots[s, NEXT], VERT]
-    length = math.hypot(pts[b, 0] - pts[a, 0], pts[b, 1] - pts[a, 1]) / hv[a]
+    length = math.hypot(pts[b, 0] - pts[a, 0], pts[b, 1] - pts[a, 1]) / pts[a, SIZE]
     key = slot_angle(fr, s)
     if key >= T_FLAT:
         key = T_FLAT + 1e-3 * slots[s, LAYER]
-    if key >= T_CLOSE and hv[a] < FINE * fr.size:
+    if key >= T_CLOSE and pts[a, SIZE] < FINE * fr.size:
         key -= FINE_LEAD
     return key + 1e-7 * min(length, 10.0) + 1e6 * slots[s, FAIL]
 

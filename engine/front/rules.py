@@ -28,6 +28,7 @@ from .constants import (
     Q_MIN,
     Q_MIN_RELAXED,
     RELAXED,
+    SIZE,
     SNAP_CLEAR,
     SNAP_LAYER,
     SNAP_TOL,
@@ -98,7 +99,7 @@ def try_apex(
     if new_ok:
         w = fr.st[NP]
         pts[w, 0], pts[w, 1] = px, py
-        fr.hv[w] = size_at(sf, px, py)
+        pts[w, SIZE] = size_at(sf, px, py)
         fr.st[NP] += 1
         return MADE if apply(fr, ix, hp, e, -1, w) else NO_ROOM
     if best_k >= 0:
@@ -176,13 +177,13 @@ def ideal_apex(
     across a gap that is not a whole number of rows close with evenly stretched triangles
     instead of a last row of slivers.
     """
-    slots, pts, hv = fr.slots, fr.pts, fr.hv
+    slots, pts = fr.slots, fr.pts
     u, v = slots[e, VERT], slots[slots[e, NEXT], VERT]
     ux, uy, vx, vy = pts[u, 0], pts[u, 1], pts[v, 0], pts[v, 1]
     length = math.hypot(vx - ux, vy - uy)
     nx_, ny_ = -(vy - uy) / length, (vx - ux) / length
     mx, my = 0.5 * (ux + vx), 0.5 * (uy + vy)
-    h = 0.5 * (hv[u] + hv[v])
+    h = 0.5 * (pts[u, SIZE] + pts[v, SIZE])
     h_far = size_at(sf, mx + nx_ * 0.866 * h, my + ny_ * 0.866 * h)
     delta = min(max(0.5 * (h + h_far), 0.55 * length), 1.6 * length)
     height = math.sqrt(max(delta * delta - 0.25 * length * length, 0.09 * length * length))
@@ -193,7 +194,7 @@ def ideal_apex(
 @nb.njit(cache=True)
 def process(fr: Front, ix: Index, hp: Heap, sf: SizeTuple, s: int) -> int:
     """Advance the front at slot ``s`` (the smallest angle); MADE, NO_MOVE or NO_ROOM."""
-    slots, pts, hv = fr.slots, fr.pts, fr.hv
+    slots, pts = fr.slots, fr.pts
     ps, ns = slots[s, PREV], slots[s, NEXT]
     a, b, c = slots[ps, VERT], slots[s, VERT], slots[ns, VERT]
     ax, ay, bx, by, cx, cy = pts[a, 0], pts[a, 1], pts[b, 0], pts[b, 1], pts[c, 0], pts[c, 1]
@@ -213,7 +214,7 @@ def process(fr: Front, ix: Index, hp: Heap, sf: SizeTuple, s: int) -> int:
         dx, dy = (cx - bx) / lc, (cy - by) / lc
         bis_x = dx * math.cos(half) - dy * math.sin(half)
         bis_y = dx * math.sin(half) + dy * math.cos(half)
-        h0 = hv[b]
+        h0 = pts[b, SIZE]
         d = 0.5 * (h0 + size_at(sf, bx + bis_x * h0, by + bis_y * h0))
         lavg = 0.5 * (la + lc)
         d = min(max(d, 0.7 * lavg), 1.4 * lavg)

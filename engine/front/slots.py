@@ -6,7 +6,7 @@ import numba as nb
 import numpy as np
 
 from . import index, queue
-from .constants import ALIVE, CURVED, FAIL, LAYER, LIVE, NEXT, NS, NT, PREV, VER, VERT
+from .constants import ALIVE, CURVED, FAIL, LAYER, LIVE, NEXT, NS, NT, PREV, STAMP, VER, VERT
 from .state import Front, Heap, Index
 
 
@@ -20,6 +20,7 @@ def new_slot(fr: Front, vert: int) -> int:
     slots[s, VER] = 0
     slots[s, FAIL] = 0
     slots[s, ALIVE] = 1
+    slots[s, STAMP] = 0  # grown rows are not zeroed; queries count from 1
     st[LIVE] += 1
     return s
 

@@ -18,12 +18,10 @@ IntArray = NDArray[np.int64]
 class Front(NamedTuple):
     """Points, triangles, the slot table and the scalar state."""
 
-    pts: FloatArray  #: (n, 2) points, the first ``st[NP]`` used
-    hv: FloatArray  #: (n,) size field at each point
+    pts: FloatArray  #: (n, 3) points and the size field there, the first ``st[NP]`` used
     tris: IntArray  #: (m, 3) triangles, the first ``st[NT]`` used
     slots: IntArray  #: (s, N_COLS) slot table (see constants)
     st: IntArray  #: (N_STATE,) scalar state (see constants)
-    stamp: IntArray  #: (s,) last query that visited each slot
     size: float  #: the field's size away from features (tells fine fronts apart)
 
 
@@ -35,14 +33,19 @@ class Heap(NamedTuple):
 
 
 class Index(NamedTuple):
-    """Spatial index of front edges: a uniform grid of cells holding linked lists of entries.
+    """Spatial index of front edges: a uniform grid of cells of the interior size, and in
+    each cell a loose quadtree for the edges much shorter than a cell.
 
-    Deletion is lazy: an entry is live while its slot is alive at the version it was
-    inserted with.
+    An edge whose bounding box is wider than ``fine`` is listed in every cell its box
+    meets; a shorter one in one tree node, the smallest that holds its centre and is at
+    least as wide as the edge (see :mod:`engine.front.index`). Deletion is lazy: an entry
+    is live while its slot is alive at the version it was inserted with.
     """
 
-    head: IntArray  #: (nx * ny,) first entry of each cell, -1 when empty
-    ent: IntArray  #: (e, 3) entries: slot, slot version, next entry of the cell
+    head: IntArray  #: (nx * ny, 2) each cell's first entry and tree root (-1: none)
+    ent: IntArray  #: (e, 3) entries: slot, slot version, next entry of the cell or node
+    node: IntArray  #: (m, 5) tree nodes: four children, first entry (-1: none)
+    fine: float  #: edges no wider than this go to the trees (0: the grid alone)
     x0: float  #: lower-left corner of the grid
     y0: float
     cell: float  #: cell side
