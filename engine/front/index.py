@@ -15,7 +15,7 @@ import numba as nb
 import numpy as np
 
 from .constants import ALIVE, NE, NEXT, NN, NS, QUERY, STAMP, VER, VERT
-from .state import Front, Index
+from .state import Front, Index, IntArray
 
 #: Edges whose bounding box is at most this fraction of a cell wide go to the trees.
 FINE_EDGE = 0.25
@@ -124,6 +124,21 @@ def rebuild(fr: Front, ix: Index) -> bool:
 
 
 @nb.njit(cache=True, inline="always")
+def _collect(slots: IntArray, ent: IntArray, hits: IntArray, g: int, q: int, n: int) -> int:
+    """Append to ``hits[n:]`` the live slots of the list of entries from ``g`` not yet found
+    by query ``q`` (stamping them); returns the new count."""
+    while g >= 0:
+        f = ent[g, 0]
+        live = slots[f, ALIVE] == 1 and slots[f, VER] == ent[g, 1]
+        g = ent[g, 2]
+        if live and slots[f, STAMP] != q:
+            slots[f, STAMP] = q
+            hits[n] = f
+            n += 1
+    return n
+
+
+@nb.njit(cache=True, inline="always")
 def gather(fr: Front, ix: Index, x0: float, y0: float, x1: float, y1: float) -> int:
     """Write the live slots whose edges may meet the box to ``ix.hits``, each once; returns
     how many.
@@ -139,15 +154,7 @@ def gather(fr: Front, ix: Index, x0: float, y0: float, x1: float, y1: float) -> 
     n = 0
     for j in range(j0, j1 + 1):
         for i in range(i0, i1 + 1):
-            g = head[j * ix.nx + i, LIST]
-            while g >= 0:
-                f = ent[g, 0]
-                live = slots[f, ALIVE] == 1 and slots[f, VER] == ent[g, 1]
-                g = ent[g, 2]
-                if live and slots[f, STAMP] != q:
-                    slots[f, STAMP] = q
-                    hits[n] = f
-                    n += 1
+            n = _collect(slots, ent, hits, head[j * ix.nx + i, LIST], q, n)
     if fr.st[NN] > 0:  # some edges are in trees
         n = _gather_fine(fr, ix, x0, y0, x1, y1, n)
     return n
@@ -189,15 +196,7 @@ def _gather_fine(fr: Front, ix: Index, x0: float, y0: float, x1: float, y1: floa
                     or by + side + reach < y0
                 ):
                     continue
-                g = node[m, HEAD]
-                while g >= 0:
-                    f = ent[g, 0]
-                    live = slots[f, ALIVE] == 1 and slots[f, VER] == ent[g, 1]
-                    g = ent[g, 2]
-                    if live and slots[f, STAMP] != q:
-                        slots[f, STAMP] = q
-                        hits[n] = f
-                        n += 1
+                n = _collect(slots, ent, hits, node[m, HEAD], q, n)
                 half = 0.5 * side
                 for k in range(4):
                     if node[m, k] >= 0:
