@@ -15,7 +15,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .boundary import Region
-from .errors import LimitExceeded
+from .errors import Cancelled, LimitExceeded
+from .result import ProgressFn, StopFn
 from .sizing import SizeField, SizeTuple
 from .sizing import size_field_at as _size
 
@@ -25,6 +26,8 @@ FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
 _MAX_STEPS = 40_000_000
+#: Segments between two polls of ``should_stop``.
+_POLL = 1024
 
 
 @dataclass(frozen=True)
@@ -47,15 +50,19 @@ def _march(
     ax: float, ay: float, bx: float, by: float, sf: SizeTuple, max_steps: int
 ) -> tuple[FloatArray, FloatArray]:  # pragma: no cover - compiled
     """Parameters along a -> b in steps of a quarter of the local size, with the running
-    integral of ds / h (trapezoid rule; accurate because h changes by at most 5% a step)."""
+    integral of ds / h (trapezoid rule; accurate because h changes by at most 5% a step).
+    Stops after ``max_steps`` steps; the arrays grow as needed."""
     length = math.hypot(bx - ax, by - ay)
-    ts = np.empty(max_steps + 2)
-    cum = np.empty(max_steps + 2)
+    ts = np.empty(64)
+    cum = np.empty(64)
     ts[0], cum[0] = 0.0, 0.0
     h_prev = _size(sf, ax, ay)
     n = 1
     t = 0.0
     while t < 1.0 and n <= max_steps:
+        if n == ts.shape[0]:
+            ts = np.concatenate((ts, np.empty(n)))
+            cum = np.concatenate((cum, np.empty(n)))
         t = min(t + 0.25 * h_prev / length, 1.0)
         h = _size(sf, ax + t * (bx - ax), ay + t * (by - ay))
         ts[n] = t
@@ -82,8 +89,15 @@ def _split(a: FloatArray, b: FloatArray, field: SizeField) -> FloatArray:
     return a + ts[:, None] * (b - a)
 
 
-def discretize(region: Region, field: SizeField) -> Discretized:
+def discretize(
+    region: Region,
+    field: SizeField,
+    progress: ProgressFn | None = None,
+    should_stop: StopFn | None = None,
+) -> Discretized:
     """Points and directed edges of the boundary of ``region`` split to ``field``.
+
+    ``should_stop()`` is polled every ``_POLL`` segments (:class:`Cancelled` when true).
 
     >>> from engine.boundary import make_region
     >>> from engine.params import SizingParams
@@ -98,9 +112,17 @@ def discretize(region: Region, field: SizeField) -> Discretized:
     ring_id: list[IntArray] = []
     starts = [0]
     offset = 0
+    total = max(region.n_vertices, 1)
+    done = 0
     for r, ring in enumerate(region.rings):
         pieces: list[FloatArray] = []
         for i in range(len(ring)):
+            if done % _POLL == 0:
+                if progress is not None:
+                    progress("discretize", done / total)
+                if should_stop is not None and should_stop():
+                    raise Cancelled("stopped while discretising the boundary")
+            done += 1
             a, b = ring[i], ring[(i + 1) % len(ring)]
             pieces.append(a[None, :])
             pieces.append(_split(a, b, field))
