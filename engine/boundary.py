@@ -27,6 +27,8 @@ RELATIVE_TOLERANCE = 1e-7
 #: Boundary pieces closer than this fraction of the region's extent count as touching (a
 #: needle 3e-7 wide whose tip passes 2.4e-8 of the extent from the boundary meshes fine).
 MIN_CLEARANCE = 1e-9
+#: Largest coordinate accepted: squared lengths of the region must stay finite.
+_MAX_COORDINATE = 1e150
 
 
 def signed_area(ring: FloatArray) -> float:
@@ -158,6 +160,12 @@ def _clean_ring(raw: RingInput, part: int, ring: int) -> tuple[FloatArray, IntAr
         raise InvalidBoundary(
             f"{where} vertex {v} has a non-finite coordinate", part=part, ring=ring, vertex=v
         )
+    # Extents beyond the float range (1e308 on both sides of 0) overflow every later length.
+    if np.abs(arr).max() > _MAX_COORDINATE:
+        raise InvalidBoundary(
+            f"{where} has a coordinate beyond {_MAX_COORDINATE:g} in absolute value",
+            part=part, ring=ring, vertex=int(np.abs(arr).max(axis=1).argmax()),
+        )  # fmt: skip
     # Consecutive vertices closer than the tolerance are repeats (e.g. a closing vertex written
     # with rounding noise).
     tol = RELATIVE_TOLERANCE * float(np.ptp(arr, axis=0).max())

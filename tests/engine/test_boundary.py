@@ -157,3 +157,11 @@ def test_valid_polygons_under_odd_affine_maps_are_accepted(
     assume(shape.is_valid and shapely.minimum_clearance(shape) >= 1e-6 * span)
     region = make_region([(warp(outer), [warp(h) for h in holes])])
     assert region.area == pytest.approx(shape.area, rel=1e-9)
+
+
+@pytest.mark.parametrize("big", [1e308, -1e200, 1e151])
+def test_coordinates_beyond_the_float_range_are_refused(big: float) -> None:
+    # 1e308 on both sides of 0 overflowed the extent (a RuntimeWarning, a 500 in the service).
+    err = _error([([[0, 0], [big, 0], [0, -big]], [])])
+    assert "beyond 1e+150" in err.message
+    assert err.vertex is not None
