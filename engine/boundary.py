@@ -22,8 +22,13 @@ __all__ = ["PolygonPart", "Region", "make_region", "signed_area"]
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
-#: Boundary pieces closer than this fraction of the region's extent count as touching.
+#: Consecutive vertices closer than this fraction of the region's extent are one vertex.
 RELATIVE_TOLERANCE = 1e-7
+#: Boundary pieces closer than this fraction of the region's extent count as touching (a
+#: needle 3e-7 wide whose tip passes 2.4e-8 of the extent from the boundary meshes fine).
+MIN_CLEARANCE = 1e-9
+#: Largest coordinate accepted: squared lengths of the region must stay finite.
+_MAX_COORDINATE = 1e150
 
 
 def signed_area(ring: FloatArray) -> float:
@@ -32,7 +37,8 @@ def signed_area(ring: FloatArray) -> float:
     >>> signed_area(np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]))
     0.5
     """
-    x, y = ring[:, 0], ring[:, 1]
+    # Relative to the first vertex: products of large coordinates (UTM metres) cancel badly.
+    x, y = ring[:, 0] - ring[0, 0], ring[:, 1] - ring[0, 1]
     return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
 
 
@@ -154,6 +160,12 @@ def _clean_ring(raw: RingInput, part: int, ring: int) -> tuple[FloatArray, IntAr
         raise InvalidBoundary(
             f"{where} vertex {v} has a non-finite coordinate", part=part, ring=ring, vertex=v
         )
+    # Extents beyond the float range (1e308 on both sides of 0) overflow every later length.
+    if np.abs(arr).max() > _MAX_COORDINATE:
+        raise InvalidBoundary(
+            f"{where} has a coordinate beyond {_MAX_COORDINATE:g} in absolute value",
+            part=part, ring=ring, vertex=int(np.abs(arr).max(axis=1).argmax()),
+        )  # fmt: skip
     # Consecutive vertices closer than the tolerance are repeats (e.g. a closing vertex written
     # with rounding noise).
     tol = RELATIVE_TOLERANCE * float(np.ptp(arr, axis=0).max())
@@ -263,20 +275,23 @@ def _check_holes(
 
 
 def _check_part_valid(part: int, poly: PolygonPart, maps: list[IntArray]) -> None:
-    """Whatever GEOS finds invalid, also after snapping to :data:`RELATIVE_TOLERANCE` of the
-    region's size (pieces of boundary that nearly touch cannot be meshed), is reported with the
-    ring and vertex nearest to the problem."""
+    """Whatever GEOS finds invalid is reported with the ring and vertex nearest to the problem,
+    and so is a vertex closer than :data:`MIN_CLEARANCE` of the region's size to boundary
+    it is not joined to (GEOS's minimum clearance): such pieces nearly touch and cannot be
+    meshed. Valid polygons with more clearance are accepted whatever their coordinates: snapping
+    to a grid and comparing areas refused thin shapes whose area moved by the snap alone."""
     shp = poly.to_shapely()
-    reason = None if shp.is_valid else shapely.is_valid_reason(shp)
-    nearly = False
-    if reason is None:
-        span = float(np.ptp(poly.outer, axis=0).max())
-        snapped = shapely.set_precision(shp, RELATIVE_TOLERANCE * span, mode="pointwise")
-        if snapped.is_valid and abs(snapped.area - shp.area) <= 1e-6 * shp.area:
+    nearly = shp.is_valid
+    if nearly:
+        tol = MIN_CLEARANCE * float(np.ptp(poly.outer, axis=0).max())
+        if not shapely.minimum_clearance(shp) < tol:
             return
-        reason = shapely.is_valid_reason(snapped)
-        nearly = True
-    at = _reason_point(reason)
+        line = shapely.get_coordinates(shapely.minimum_clearance_line(shp))
+        at: tuple[float, float] | None = (float(line[0, 0]), float(line[0, 1]))
+        reason = "Valid Geometry"
+    else:
+        reason = shapely.is_valid_reason(shp)
+        at = _reason_point(reason)
     if at is None:
         raise InvalidBoundary(f"part {part} is not a valid polygon: {reason}", part=part)
     ring, vertex = min(
@@ -285,7 +300,7 @@ def _check_part_valid(part: int, poly: PolygonPart, maps: list[IntArray]) -> Non
     )
     what = (
         "nearly touches itself (pieces of boundary closer than "
-        f"{RELATIVE_TOLERANCE:g} of the region's size)"
+        f"{MIN_CLEARANCE:g} of the region's size)"
         if nearly
         else f"is not valid ({reason.split('[')[0]})"
     )

@@ -29,10 +29,12 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
+from .errors import Cancelled
 from .fitness import star_min
 from .mesh import Mesh, edge_table
 from .quality import shape_quality, shape_quality_xy
 from .relax import node_stars
+from .result import StopFn
 
 __all__ = ["collapse_edges"]
 
@@ -198,7 +200,7 @@ def _grow(tri: IntArray, nodes: BoolArray, rings: int) -> BoolArray:
     return nodes
 
 
-def collapse_edges(mesh: Mesh, rounds: int = ROUNDS) -> Mesh:
+def collapse_edges(mesh: Mesh, rounds: int = ROUNDS, should_stop: StopFn | None = None) -> Mesh:
     """Collapse interior edges while merging their nodes lifts the worst triangle around them.
 
     Returns a new mesh (fewer nodes and triangles, boundary unchanged, triangles still
@@ -219,6 +221,8 @@ def collapse_edges(mesh: Mesh, rounds: int = ROUNDS) -> Mesh:
     rows = np.arange(len(tri))
     changed = False
     for _ in range(rounds):
+        if should_stop is not None and should_stop():
+            raise Cancelled("stopped while collapsing edges")
         sub = tri[rows]
         tq = shape_quality(points, sub)
         star_worst = star_min(Mesh(points, sub), tq)

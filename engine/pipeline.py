@@ -126,6 +126,7 @@ def mesh_region(
     relax_sweeps: int = 3,
     should_stop: StopFn | None = None,
     max_triangles: int = 5_000_000,
+    progress: ProgressFn | None = None,
 ) -> tuple[Mesh, dict[str, float]]:
     """Mesh ``region`` (no swapping, no smoothing); returns the mesh and stage timings.
 
@@ -133,11 +134,16 @@ def mesh_region(
     relaxation, edge collapses where fronts left a node too many
     (:func:`engine.collapse.collapse_edges`) and relaxation again (0 gives the raw front).
     Raises :class:`LimitExceeded` when the estimated (or, while meshing, the actual) triangle
-    count is over ``max_triangles``.
+    count is over ``max_triangles``; every stage polls ``should_stop`` and reports ``progress``
+    (stages ``sizing``, ``estimate``, ``discretize``, ``mesh``, ``relax``, ``collapse``).
     """
+    progress = progress or _no_progress
+    should_stop = should_stop or _never
     t0 = time.perf_counter()
-    field = build_size_field(region, sizing)
-    estimate = estimate_triangles(region, field)
+    field = build_size_field(region, sizing, progress, should_stop)
+    estimate = estimate_triangles(
+        region, field, cap=max_triangles, progress=progress, should_stop=should_stop
+    )
     if estimate > max_triangles:
         raise LimitExceeded(
             f"the mesh would have about {estimate} triangles, over the limit of {max_triangles}; "
@@ -145,12 +151,18 @@ def mesh_region(
             limit=max_triangles,
             estimate=estimate,
         )
-    boundary = discretize(region, field)
+    boundary = discretize(region, field, progress, should_stop)
     t1 = time.perf_counter()
+    progress("mesh", 0.0)
     front = advance_front(boundary, field, should_stop, max_triangles=max_triangles)
-    mesh = relax(front, relax_sweeps)
+    progress("relax", 0.0)
+    mesh = relax(front, relax_sweeps, should_stop=should_stop)
     if relax_sweeps > 0:  # 0 asks for the raw front
-        mesh = relax(collapse_edges(mesh), relax_sweeps)
+        progress("collapse", 0.0)
+        collapsed = collapse_edges(mesh, should_stop=should_stop)
+        progress("relax", 0.5)
+        mesh = relax(collapsed, relax_sweeps, should_stop=should_stop)
+    progress("relax", 1.0)
     t2 = time.perf_counter()
     return mesh, {"boundary": t1 - t0, "mesh": t2 - t1}
 
@@ -245,7 +257,7 @@ def mesh_then_smooth(
     started = time.perf_counter()
     progress("boundary", 0.0)
     mesh, timings = mesh_region(
-        region, params.sizing, params.relax, should_stop, params.max_triangles
+        region, params.sizing, params.relax, should_stop, params.max_triangles, progress
     )
     progress("mesh", 1.0)
     return _improve(

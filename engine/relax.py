@@ -14,7 +14,9 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
+from .errors import Cancelled
 from .mesh import Mesh
+from .result import StopFn
 
 __all__ = ["node_stars", "relax"]
 
@@ -130,8 +132,15 @@ def _shortest_edge(
     return out
 
 
-def relax(mesh: Mesh, sweeps: int = 3, fixed: BoolArray | None = None) -> Mesh:
+def relax(
+    mesh: Mesh,
+    sweeps: int = 3,
+    fixed: BoolArray | None = None,
+    should_stop: StopFn | None = None,
+) -> Mesh:
     """The mesh after ``sweeps`` of constrained relaxation (boundary nodes fixed).
+
+    ``should_stop()`` is polled before each sweep (:class:`Cancelled` when true).
 
     >>> pts = np.array([[0.0, 0], [1, 0], [1, 1], [0, 1], [0.9, 0.8]])
     >>> tris = np.array([[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]])
@@ -143,5 +152,8 @@ def relax(mesh: Mesh, sweeps: int = 3, fixed: BoolArray | None = None) -> Mesh:
         return Mesh(points, mesh.triangles)
     mask = mesh.boundary_nodes if fixed is None else fixed
     start, tri_of = node_stars(mesh.triangles, mesh.n_points)
-    _relax(points, mesh.triangles, np.ascontiguousarray(mask), start, tri_of, sweeps)
+    for _ in range(sweeps):  # one sweep a call: the sweeps share no state
+        if should_stop is not None and should_stop():
+            raise Cancelled("stopped while relaxing the mesh")
+        _relax(points, mesh.triangles, np.ascontiguousarray(mask), start, tri_of, 1)
     return Mesh(points, mesh.triangles)

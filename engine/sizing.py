@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numba as nb
 import numpy as np
@@ -25,24 +26,25 @@ import shapely
 from numpy.typing import NDArray
 
 from .boundary import Region
+from .conetree import ConeTree, build_tree, cone_min
+from .errors import Cancelled, LimitExceeded
 from .params import SizingParams
+from .result import ProgressFn, StopFn
 
 __all__ = [
     "GAP_FACTOR",
+    "MAX_GAP_SAMPLES",
     "SizeField",
     "SizeTuple",
     "build_size_field",
     "estimate_triangles",
-    "size_at",
     "size_field_at",
 ]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 #: The size field as numba kernels take it (see :meth:`SizeField.as_tuple`).
-SizeTuple = tuple[
-    float, float, float, FloatArray, FloatArray, float, float, float, int, int, IntArray, IntArray
-]
+SizeTuple = ConeTree
 
 #: Size asked for by a narrow gap, as a fraction of its width (two rows of triangles across).
 GAP_FACTOR = 0.6
@@ -50,10 +52,25 @@ GAP_FACTOR = 0.6
 #: boundary it faces for the two to count as a gap (60 degrees: sharper corners count as gaps).
 _FACING_COS = 0.5
 _SHARP_CORNER_DEG = 60.0
-_MAX_GRID_CELLS = 1 << 21
-_MAX_GAP_SAMPLES = 4_000_000
+#: Gap samples (each one STRtree query) that one size field may take; past it the region is
+#: refused, since a mesh needs at least one boundary node per sample.
+MAX_GAP_SAMPLES = 2_000_000
+#: A piece of boundary whose gap width is linear within this fraction becomes one feature.
+_LINEAR_TOL = 0.02
+#: The estimate's weights of the area integral and of the boundary nodes (the front's rows near
+#: the boundary are a little finer than the field): least squares over the public cases, thin
+#: spikes, a channel, a digitised ellipse and a random star (tests/engine/test_estimate.py).
+_PER_AREA, _PER_NODE = 1.04, 0.3
 #: Triangles per unit area of an equilateral mesh with edge h are 1 / (EQUILATERAL_AREA * h^2).
 EQUILATERAL_AREA = math.sqrt(3.0) / 4.0
+
+
+def _no_progress(stage: str, fraction: float) -> None:
+    del stage, fraction
+
+
+def _never() -> bool:
+    return False
 
 
 @dataclass(frozen=True)
@@ -67,34 +84,36 @@ class SizeField:
     [0.1]
     """
 
-    size: float  #: target size away from features (already clamped)
-    slope: float  #: growth - 1
-    size_min: float  #: lower clamp (0 when none)
-    feature_xy: FloatArray  #: (f, 2) feature points
-    feature_h: FloatArray  #: (f,) size each feature asks for
-    origin: FloatArray  #: (2,) lower-left corner of the lookup grid
-    cell: float  #: lookup grid spacing
-    shape: tuple[int, int]  #: lookup grid cells (nx, ny)
-    cell_start: IntArray  #: CSR offsets into cell_items, one per cell plus one
-    cell_items: IntArray  #: feature indices whose cone can matter in each cell
+    tree: ConeTree  #: features and the tree over them
+    samples: int = 0  #: gap samples the field took to build
 
     def __call__(self, xy: FloatArray) -> FloatArray:
+        return self.evaluate(xy)[0]
+
+    def evaluate(self, xy: FloatArray) -> tuple[FloatArray, int]:
+        """Sizes at ``xy`` and the number of feature evaluations they took."""
         pts = np.ascontiguousarray(xy, dtype=np.float64).reshape(-1, 2)
-        return _evaluate(
-            pts,
-            self.size,
-            self.slope,
-            self.size_min,
-            self.feature_xy,
-            self.feature_h,
-            self.origin[0],
-            self.origin[1],
-            self.cell,
-            self.shape[0],
-            self.shape[1],
-            self.cell_start,
-            self.cell_items,
-        )
+        return _evaluate(pts, self.tree)
+
+    @property
+    def size(self) -> float:
+        """Target size away from features (already clamped)."""
+        return self.tree.size
+
+    @property
+    def slope(self) -> float:
+        """``growth - 1``."""
+        return self.tree.slope
+
+    @property
+    def size_min(self) -> float:
+        """Lower clamp (0 when none)."""
+        return self.tree.size_min
+
+    @property
+    def feature_h(self) -> FloatArray:
+        """Smallest size each feature asks for."""
+        return np.minimum(self.tree.ha, self.tree.hb)
 
     @property
     def smallest(self) -> float:
@@ -102,145 +121,49 @@ class SizeField:
         h = float(self.feature_h.min()) if self.feature_h.size else self.size
         return max(min(h, self.size), self.size_min)
 
-    def as_tuple(
-        self,
-    ) -> tuple[
-        float,
-        float,
-        float,
-        FloatArray,
-        FloatArray,
-        float,
-        float,
-        float,
-        int,
-        int,
-        IntArray,
-        IntArray,
-    ]:
-        """The arrays and scalars that numba kernels take (see :func:`size_at`)."""
-        return (
-            self.size,
-            self.slope,
-            self.size_min,
-            self.feature_xy,
-            self.feature_h,
-            float(self.origin[0]),
-            float(self.origin[1]),
-            self.cell,
-            self.shape[0],
-            self.shape[1],
-            self.cell_start,
-            self.cell_items,
-        )
-
-
-@nb.njit(cache=True, nogil=True)
-def size_at(
-    x: float,
-    y: float,
-    size: float,
-    slope: float,
-    size_min: float,
-    fxy: FloatArray,
-    fh: FloatArray,
-    ox: float,
-    oy: float,
-    cell: float,
-    nx: int,
-    ny: int,
-    start: IntArray,
-    items: IntArray,
-) -> float:  # pragma: no cover - compiled
-    """The size field at one point (numba; arguments as :meth:`SizeField.as_tuple`)."""
-    h = size
-    if nx > 0:
-        i = min(max(int((x - ox) / cell), 0), nx - 1)
-        j = min(max(int((y - oy) / cell), 0), ny - 1)
-        c = j * nx + i
-        for k in range(start[c], start[c + 1]):
-            f = items[k]
-            d = math.sqrt((x - fxy[f, 0]) ** 2 + (y - fxy[f, 1]) ** 2)
-            v = fh[f] + slope * d
-            if v < h:
-                h = v
-    return max(h, size_min)
+    def as_tuple(self) -> ConeTree:
+        """The named tuple that numba kernels take (see :func:`size_field_at`)."""
+        return self.tree
 
 
 @nb.njit(cache=True, inline="always")
 def size_field_at(sf: SizeTuple, x: float, y: float) -> float:
     """The size field at one point, from :meth:`SizeField.as_tuple` (numba)."""
-    return size_at(
-        x, y, sf[0], sf[1], sf[2], sf[3], sf[4], sf[5], sf[6], sf[7], sf[8], sf[9], sf[10], sf[11]
-    )
+    return cone_min(sf, x, y)[0]
 
 
 @nb.njit(cache=True, nogil=True)
-def _evaluate(
-    pts: FloatArray,
-    size: float,
-    slope: float,
-    size_min: float,
-    fxy: FloatArray,
-    fh: FloatArray,
-    ox: float,
-    oy: float,
-    cell: float,
-    nx: int,
-    ny: int,
-    start: IntArray,
-    items: IntArray,
-) -> FloatArray:  # pragma: no cover - compiled
+def _evaluate(pts: FloatArray, t: ConeTree) -> tuple[FloatArray, int]:  # pragma: no cover
     out = np.empty(pts.shape[0])
+    work = 0
     for p in range(pts.shape[0]):
-        out[p] = size_at(
-            pts[p, 0], pts[p, 1], size, slope, size_min, fxy, fh, ox, oy, cell, nx, ny, start, items
-        )
-    return out
+        out[p], w = cone_min(t, pts[p, 0], pts[p, 1])
+        work += w
+    return out, work
 
 
 @nb.njit(cache=True)
-def _splat(
-    fxy: FloatArray,
-    fh: FloatArray,
-    size: float,
-    slope: float,
-    ox: float,
-    oy: float,
-    cell: float,
-    nx: int,
-    ny: int,
-) -> tuple[IntArray, IntArray]:  # pragma: no cover - compiled
-    """Put each feature into every grid cell its cone reaches below ``size``."""
-    nf = fxy.shape[0]
-    counts = np.zeros(nx * ny + 1, dtype=np.int64)
-    for pass_ in range(2):
-        if pass_ == 1:
-            for c in range(nx * ny):
-                counts[c + 1] += counts[c]
-            items = np.empty(counts[nx * ny], dtype=np.int64)
-            fill = counts[:-1].copy()
-        for f in range(nf):
-            reach = (size - fh[f]) / slope
-            i0 = max(int((fxy[f, 0] - reach - ox) / cell), 0)
-            i1 = min(int((fxy[f, 0] + reach - ox) / cell), nx - 1)
-            j0 = max(int((fxy[f, 1] - reach - oy) / cell), 0)
-            j1 = min(int((fxy[f, 1] + reach - oy) / cell), ny - 1)
-            for j in range(j0, j1 + 1):
-                for i in range(i0, i1 + 1):
-                    # Skip cells that the cone cannot reach: distance from f to the cell box.
-                    dx = max(ox + i * cell - fxy[f, 0], 0.0, fxy[f, 0] - (ox + (i + 1) * cell))
-                    dy = max(oy + j * cell - fxy[f, 1], 0.0, fxy[f, 1] - (oy + (j + 1) * cell))
-                    if dx * dx + dy * dy > reach * reach:
-                        continue
-                    c = j * nx + i
-                    if pass_ == 0:
-                        counts[c + 1] += 1
-                    else:
-                        items[fill[c]] = f
-                        fill[c] += 1
-    start = counts
-    return start, items
+def boundary_nodes(
+    a: FloatArray, b: FloatArray, sf: SizeTuple, cap: float
+) -> float:  # pragma: no cover - compiled
+    """Nodes the discretisation puts on segments ``a[i] -> b[i]`` (their starts included), in
+    steps of the local size (it changes by at most ``slope`` a step); stops past ``cap``."""
+    total = 0.0
+    for i in range(a.shape[0]):
+        ax, ay, bx, by = a[i, 0], a[i, 1], b[i, 0], b[i, 1]
+        length = math.hypot(bx - ax, by - ay)
+        h_prev = size_field_at(sf, ax, ay)
+        t, cum = 0.0, 0.0
+        while t < 1.0 and total + cum <= cap:
+            step = min(h_prev / length, 1.0 - t)
+            t += step
+            h = size_field_at(sf, ax + t * (bx - ax), ay + t * (by - ay))
+            cum += 0.5 * (1.0 / h + 1.0 / h_prev) * step * length
+            h_prev = h
+        total += max(round(cum), 1)
+        if total > cap:
+            break
+    return total
 
 
 def _ring_segments(region: Region) -> tuple[FloatArray, FloatArray, IntArray, IntArray]:
@@ -288,14 +211,17 @@ def _gap_sizes(
     prev: IntArray,
     nxt: IntArray,
     tree: shapely.STRtree,
-    reach: float,
+    reach: FloatArray,
 ) -> FloatArray:
-    """Size each sample asks for because it faces another part of the boundary within reach."""
+    """Size each sample asks for because it faces another part of the boundary within its
+    ``reach`` (per sample: gaps wider than that ask for no less than the sample has)."""
     out = np.full(len(samples), np.inf)
     chunk = 200_000
     for lo in range(0, len(samples), chunk):
         sl = slice(lo, lo + chunk)
-        s_idx, g_idx = tree.query(shapely.points(samples[sl]), predicate="dwithin", distance=reach)
+        s_idx, g_idx = tree.query(
+            shapely.points(samples[sl]), predicate="dwithin", distance=reach[sl]
+        )
         s_idx = s_idx + lo
         own = seg_of_sample[s_idx]
         p = samples[s_idx]
@@ -318,68 +244,114 @@ def _gap_sizes(
     return out
 
 
-def _gap_features(region: Region, size: float) -> tuple[FloatArray, FloatArray]:
-    """Features from narrow gaps, sampled by bisecting each segment where a gap asks for finer
-    spacing than the samples have, so a pinch costs samples only near the pinch."""
+class _Intervals(NamedTuple):
+    """Pieces ``t0 -> t1`` of boundary segments and the gap width found at each end."""
+
+    seg: IntArray
+    t0: FloatArray
+    t1: FloatArray
+    g0: FloatArray
+    g1: FloatArray
+
+    def take(self, keep: NDArray[np.bool_]) -> _Intervals:
+        return _Intervals(self.seg[keep], self.t0[keep], self.t1[keep], self.g0[keep],
+                          self.g1[keep])  # fmt: skip
+
+    @staticmethod
+    def join(parts: list[_Intervals]) -> _Intervals:
+        return _Intervals(
+            np.concatenate([p.seg for p in parts]), np.concatenate([p.t0 for p in parts]),
+            np.concatenate([p.t1 for p in parts]), np.concatenate([p.g0 for p in parts]),
+            np.concatenate([p.g1 for p in parts]),
+        )  # fmt: skip
+
+
+def _gap_features(
+    region: Region, vertex_field: SizeField, should_stop: StopFn
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, int]:
+    """Segment features from narrow gaps, and the number of samples taken.
+
+    Each segment is cut into pieces no longer than ``size / 2`` and a piece is bisected until
+    the gap across it is linear (within ``_LINEAR_TOL``) or the piece is no longer than the size
+    the gap asks for. A long thin spike of parallel sides is thus a few linear pieces, not one
+    sample per ``GAP_FACTOR * width``. A sample looks for gaps only as far as they could ask
+    for less than ``vertex_field`` does there (a wider gap's cone lies above the field
+    everywhere, since the field grows no faster than the cone), so a finely digitised
+    boundary does not query every segment within ``size / GAP_FACTOR``.
+    """
+    size, slope = vertex_field.size, vertex_field.slope
     a, b, prev, nxt = _ring_segments(region)
     seg = b - a
     length = np.hypot(seg[:, 0], seg[:, 1])
     normal = np.stack([-seg[:, 1], seg[:, 0]], axis=1) / np.maximum(length, 1e-300)[:, None]
     tree = shapely.STRtree(shapely.linestrings(np.stack([a, b], axis=1)))
-    reach = size / GAP_FACTOR
-    # Intervals (segment, t0, t1) of parameter space, first no longer than size / 2.
+
+    def gap(seg_id: IntArray, t: FloatArray) -> FloatArray:
+        pts = a[seg_id] + t[:, None] * seg[seg_id]
+        reach = vertex_field(pts) / GAP_FACTOR
+        return _gap_sizes(pts, normal[seg_id], seg_id, a, b, prev, nxt, tree, reach) / GAP_FACTOR
+
     counts = np.maximum(np.ceil(2.0 * length / size).astype(np.int64), 1)
     seg_id = np.repeat(np.arange(len(a)), counts)
-    first = np.cumsum(counts) - counts
-    k = np.arange(len(seg_id)) - np.repeat(first, counts)
-    t0 = k / counts[seg_id]
-    t1 = (k + 1) / counts[seg_id]
-    found_xy: list[FloatArray] = []
-    found_h: list[FloatArray] = []
-    total = 0
+    k = np.arange(len(seg_id)) - np.repeat(np.cumsum(counts) - counts, counts)
+    t0, t1 = k / counts[seg_id], (k + 1) / counts[seg_id]
+    ends = gap(np.concatenate([seg_id, seg_id]), np.concatenate([t0, t1]))
+    todo = _Intervals(seg_id, t0, t1, ends[: len(t0)], ends[len(t0) :])
+    samples = len(ends)
+    out: list[_Intervals] = []
     for _ in range(64):
-        if len(seg_id) == 0 or total > _MAX_GAP_SAMPLES:
+        if len(todo.seg) == 0:
             break
-        mid = 0.5 * (t0 + t1)
-        pts = a[seg_id] + mid[:, None] * seg[seg_id]
-        h = _gap_sizes(pts, normal[seg_id], seg_id, a, b, prev, nxt, tree, reach)
-        total += len(pts)
-        hit = np.isfinite(h)
-        found_xy.append(pts[hit])
-        found_h.append(h[hit])
-        # Bisect intervals longer than the size their sample asks for.
-        fine = (t1 - t0) * length[seg_id] > h
-        seg_id, t0, t1, mid = seg_id[fine], t0[fine], t1[fine], mid[fine]
-        seg_id = np.concatenate([seg_id, seg_id])
-        t0, t1 = np.concatenate([t0, mid]), np.concatenate([mid, t1])
-    xy = np.concatenate(found_xy) if found_xy else np.empty((0, 2))
-    hh = np.concatenate(found_h) if found_h else np.empty(0)
-    return xy, hh
+        if should_stop():
+            raise Cancelled("stopped while sizing")
+        samples += len(todo.seg)
+        if samples > MAX_GAP_SAMPLES:
+            raise LimitExceeded(
+                f"the region's narrow gaps need more than {MAX_GAP_SAMPLES} boundary samples at "
+                "this size (a feature far thinner than the size); use a larger size or remove it",
+                limit=MAX_GAP_SAMPLES,
+                estimate=samples,
+            )
+        mid = 0.5 * (todo.t0 + todo.t1)
+        gm = gap(todo.seg, mid)
+        g = np.stack([todo.g0, gm, todo.g1])
+        found = np.isfinite(g)
+        g_low = g.min(axis=0)
+        g = np.where(found, g, 0.0)  # only pieces found at all three samples can be linear
+        piece = (todo.t1 - todo.t0) * length[todo.seg]
+        rate = GAP_FACTOR * np.abs(g[2] - g[0]) / np.maximum(piece, 1e-300)
+        linear = (
+            found.all(axis=0)
+            & (np.abs(g[1] - 0.5 * (g[0] + g[2])) <= _LINEAR_TOL * g_low)
+            & (rate < slope)
+        )
+        short = ~linear & np.isfinite(g_low) & (piece <= GAP_FACTOR * g_low)
+        out.append(todo.take(linear))
+        out.append(_Intervals(todo.seg, todo.t0, todo.t1, g_low, g_low).take(short))
+        split = ~linear & ~short & np.isfinite(g_low)
+        left = _Intervals(todo.seg, todo.t0, mid, todo.g0, gm).take(split)
+        right = _Intervals(todo.seg, mid, todo.t1, gm, todo.g1).take(split)
+        todo = _Intervals.join([left, right])
+    got = _Intervals.join(out or [todo])
+    fa = a[got.seg] + got.t0[:, None] * seg[got.seg]
+    fb = a[got.seg] + got.t1[:, None] * seg[got.seg]
+    return fa, fb, GAP_FACTOR * got.g0, GAP_FACTOR * got.g1, samples
 
 
-def _thin(xy: FloatArray, h: FloatArray, slope: float) -> tuple[FloatArray, FloatArray]:
-    """Drop features whose cone is (within 5%) under another's: the field changes by < 5%."""
-    if len(h) < 2:
-        return xy, h
-    order = np.argsort(h, kind="stable")
-    xy, h = xy[order], h[order]
-    # Bucket by a grid of the smallest size: a feature is dropped when an earlier (smaller) one in
-    # its bucket already covers it.
-    cell = max(float(h[0]), 1e-300)
-    key = np.floor(xy / cell).astype(np.int64)
-    _, first = np.unique(key, axis=0, return_index=True)
-    keep = np.zeros(len(h), dtype=bool)
-    keep[first] = True
-    rep = np.unique(key, axis=0, return_inverse=True)[1].ravel()
-    head = np.full(rep.max() + 1, -1)
-    head[rep[first]] = first
-    covered = h[head[rep]] + slope * np.hypot(*(xy - xy[head[rep]]).T) <= 1.05 * h
-    keep |= ~covered
-    return xy[keep], h[keep]
+def build_size_field(
+    region: Region,
+    params: SizingParams,
+    progress: ProgressFn | None = None,
+    should_stop: StopFn | None = None,
+) -> SizeField:
+    """The graded size field of ``region`` for ``params``.
 
-
-def build_size_field(region: Region, params: SizingParams) -> SizeField:
-    """The graded size field of ``region`` for ``params``."""
+    Raises :class:`LimitExceeded` when the region's gaps need more than
+    :data:`MAX_GAP_SAMPLES` samples, and :class:`Cancelled` when ``should_stop()`` is true.
+    """
+    progress = progress or _no_progress
+    should_stop = should_stop or _never
+    progress("sizing", 0.0)
     size = params.size
     if params.size_max is not None:
         size = min(size, params.size_max)
@@ -387,43 +359,51 @@ def build_size_field(region: Region, params: SizingParams) -> SizeField:
     slope = params.growth - 1.0
     a, b, prev, _ = _ring_segments(region)
     vxy, vh = _vertex_features(a, b, prev, size)
-    gxy, gh = _gap_features(region, size)
-    fxy = np.concatenate([vxy, gxy])
-    fh = np.maximum(np.concatenate([vh, gh]), size_min)
-    keep = fh < size
-    fxy, fh = _thin(fxy[keep], fh[keep], slope)
-    x0, y0, x1, y1 = region.bounds
-    if len(fh) == 0:
-        return SizeField(
-            size, slope, size_min, np.empty((0, 2)), np.empty(0), np.array([x0, y0]), 1.0,
-            (0, 0), np.zeros(1, dtype=np.int64), np.empty(0, dtype=np.int64),
-        )  # fmt: skip
-    span = max(x1 - x0, y1 - y0, 1e-300)
-    cell = max(size, span / math.sqrt(_MAX_GRID_CELLS))
-    nx = max(math.ceil((x1 - x0) / cell), 1)
-    ny = max(math.ceil((y1 - y0) / cell), 1)
-    start, items = _splat(
-        np.ascontiguousarray(fxy), np.ascontiguousarray(fh), size, slope, x0, y0, cell, nx, ny
-    )
-    return SizeField(
-        size, slope, size_min, np.ascontiguousarray(fxy), np.ascontiguousarray(fh),
-        np.array([x0, y0]), cell, (nx, ny), start, items,
-    )  # fmt: skip
+    x0, y0, _, _ = region.bounds
+    vertex_field = SizeField(build_tree(size, slope, 0.0, (x0, y0), vxy, vxy, vh, vh))
+    progress("sizing", 0.2)
+    if should_stop():
+        raise Cancelled("stopped while sizing")
+    ga, gb, g0, g1, samples = _gap_features(region, vertex_field, should_stop)
+    progress("sizing", 0.8)
+    fa, fb = np.concatenate([vxy, ga]), np.concatenate([vxy, gb])
+    ha = np.maximum(np.concatenate([vh, g0]), size_min)
+    hb = np.maximum(np.concatenate([vh, g1]), size_min)
+    keep = np.minimum(ha, hb) < size
+    tree = build_tree(size, slope, size_min, (x0, y0), fa[keep], fb[keep], ha[keep], hb[keep])
+    progress("sizing", 1.0)
+    return SizeField(tree, samples)
 
 
-def estimate_triangles(region: Region, field: SizeField, max_cells: int = 1 << 20) -> int:
-    """Expected triangle count: the integral of ``1 / (sqrt(3)/4 h^2)`` over the region.
-
-    Integrated on an adaptive quadtree whose cells are split while they are larger than the
-    size at their centre, so small features are counted too.
-
-    >>> from engine.boundary import make_region
-    >>> square = make_region([([[0, 0], [1, 0], [1, 1], [0, 1]], [])])
-    >>> estimate_triangles(square, build_size_field(square, SizingParams(size=0.1)))
-    231
+def _inside_share(
+    shape: shapely.Geometry, edges: shapely.STRtree, centres: FloatArray, cell: float
+) -> FloatArray:
+    """Area of each square leaf inside the region, over ``EQUILATERAL_AREA``: the centre decides
+    for leaves the boundary does not cross, a 4 x 4 grid of samples for the others (a leaf is at
+    most twice the local size, and gaps ask for sizes below their width, so the grid sees them).
     """
+    share = shapely.contains_xy(shape, centres[:, 0], centres[:, 1]).astype(np.float64)
+    half = 0.5 * cell
+    boxes = shapely.box(centres[:, 0] - half, centres[:, 1] - half,
+                        centres[:, 0] + half, centres[:, 1] + half)  # fmt: skip
+    cut = np.unique(edges.query(boxes, predicate="intersects")[0])
+    if len(cut):
+        off = (np.arange(4) - 1.5) * (cell / 4)
+        sub = centres[cut, None, :] + np.stack(np.meshgrid(off, off), -1).reshape(1, 16, 2)
+        inside = shapely.contains_xy(shape, sub[..., 0].ravel(), sub[..., 1].ravel())
+        share[cut] = inside.reshape(-1, 16).mean(axis=1)
+    return share * (cell * cell / EQUILATERAL_AREA)
+
+
+def _area_integral(
+    region: Region, field: SizeField, max_cells: int, cap: float, should_stop: StopFn
+) -> float:
+    """Integral of ``1 / (EQUILATERAL_AREA h^2)`` over the region on an adaptive quadtree whose
+    cells are split while larger than twice the size at their centre; stops past ``cap``."""
     shape = region.to_shapely()
     shapely.prepare(shape)
+    a, b, _, _ = _ring_segments(region)
+    edges = shapely.STRtree(shapely.linestrings(np.stack([a, b], axis=1)))
     x0, y0, x1, y1 = region.bounds
     cell = field.size
     nx = max(math.ceil((x1 - x0) / cell), 1)
@@ -434,19 +414,55 @@ def estimate_triangles(region: Region, field: SizeField, max_cells: int = 1 << 2
     gx, gy = np.meshgrid(x0 + cell * (np.arange(nx) + 0.5), y0 + cell * (np.arange(ny) + 0.5))
     centres = np.c_[gx.ravel(), gy.ravel()]
     total = 0.0
-    while len(centres):
+    while len(centres) and total <= cap:
+        if should_stop():
+            raise Cancelled("stopped while estimating the mesh")
         h = field(centres)
         split = h < 0.5 * cell
         if len(centres) + 3 * int(split.sum()) > max_cells:
             split[:] = False  # out of cells: count the rest at their centre size
-        keep = ~split
-        # A leaf counts its area inside the region, sampled at its centre.
-        inside = shapely.contains_xy(shape, centres[keep, 0], centres[keep, 1])
-        total += float(np.sum(cell * cell / (EQUILATERAL_AREA * h[keep][inside] ** 2)))
+        total += float(np.sum(_inside_share(shape, edges, centres[~split], cell) / h[~split] ** 2))
         quarter = 0.25 * cell
         c = centres[split]
         centres = np.concatenate(
             [c + np.array([dx, dy]) * quarter for dx in (-1, 1) for dy in (-1, 1)]
         ) if len(c) else np.empty((0, 2))  # fmt: skip
         cell *= 0.5
-    return round(total)
+    return total
+
+
+def estimate_triangles(
+    region: Region,
+    field: SizeField,
+    max_cells: int = 1 << 19,
+    cap: int | None = None,
+    progress: ProgressFn | None = None,
+    should_stop: StopFn | None = None,
+) -> int:
+    """Expected triangle count of the mesh of ``region`` following ``field``.
+
+    The larger of the area term (the integral of ``1 / (sqrt(3)/4 h^2)`` on an adaptive
+    quadtree, plus a share per boundary node) and the boundary term (a triangulation of ``n``
+    boundary nodes has at least ``n - 2 + 2 * holes`` triangles: what thin features and
+    digitised boundaries cost).
+    Counting stops once the estimate is past ``cap``: the result is then only known to exceed it.
+
+    >>> from engine.boundary import make_region
+    >>> square = make_region([([[0, 0], [1, 0], [1, 1], [0, 1]], [])])
+    >>> estimate_triangles(square, build_size_field(square, SizingParams(size=0.1)))
+    252
+    """
+    progress = progress or _no_progress
+    should_stop = should_stop or _never
+    limit = float(cap) if cap is not None else math.inf
+    progress("estimate", 0.0)
+    a, b, _, _ = _ring_segments(region)
+    nodes = boundary_nodes(a, b, field.as_tuple(), limit)
+    if nodes > limit:
+        return round(nodes)  # counting stopped: at least this many triangles
+    holes = len(region.rings) - len(region.parts)
+    edge = nodes - 2 * len(region.parts) + 2 * holes
+    progress("estimate", 0.5)
+    area = _area_integral(region, field, max_cells, limit, should_stop)
+    progress("estimate", 1.0)
+    return round(max(_PER_AREA * area + _PER_NODE * nodes, edge))

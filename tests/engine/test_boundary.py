@@ -6,9 +6,16 @@ import math
 
 import numpy as np
 import pytest
+import shapely
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+from numpy.typing import NDArray
+from shapely.geometry import Polygon
 
 from engine import InvalidBoundary, make_region
 from engine.boundary import signed_area
+
+from .regions import Rings, regions
 
 SQUARE = [[0, 0], [1, 0], [1, 1], [0, 1]]
 
@@ -112,3 +119,49 @@ def test_normalises_orientation_closing_vertex_and_repeats() -> None:
 def test_accepts_three_dimensional_positions() -> None:
     region = make_region([(np.c_[np.array(SQUARE), np.ones(4)].tolist(), [])])
     assert region.area == pytest.approx(1.0)
+
+
+def test_thin_rectangle_with_non_grid_coordinates_is_accepted() -> None:
+    # Refused as "not a valid polygon: Valid Geometry" by the snap-and-compare check: snapping
+    # to 1e-7 of the extent moved the 0.469-wide rectangle's area by more than 1e-6.
+    x0, y0 = 512345.1234567891, 6789012.987654321
+    ring = [[x0, y0], [x0 + 100.86, y0], [x0 + 100.86, y0 + 0.469], [x0, y0 + 0.469]]
+    assert make_region([(ring, [])]).area == pytest.approx(100.86 * 0.469, rel=1e-6)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    rings=regions(),
+    angle=st.floats(0.0, 2 * np.pi),
+    stretch=st.floats(-2.5, 2.5),
+    scale=st.floats(-3.0, 4.0),
+    offset=st.tuples(st.floats(-1e6, 1e6), st.floats(-1e6, 1e6)),
+)
+def test_valid_polygons_under_odd_affine_maps_are_accepted(
+    rings: tuple[Rings, float],
+    angle: float,
+    stretch: float,
+    scale: float,
+    offset: tuple[float, float],
+) -> None:
+    (outer, holes), _ = rings
+    c, s = np.cos(angle), np.sin(angle)
+    m = 10.0**scale * np.array([[c, -s], [s, c]]) @ np.diag([10.0**stretch, 1.0])
+    shift = np.asarray(offset) + np.pi  # never on a decimal grid
+
+    def warp(r: list[list[float]]) -> NDArray[np.float64]:
+        return np.asarray(r) @ m.T + shift
+
+    shape = Polygon(warp(outer), [warp(h) for h in holes])
+    span = float(np.ptp(np.asarray(shape.exterior.coords), axis=0).max())
+    assume(shape.is_valid and shapely.minimum_clearance(shape) >= 1e-6 * span)
+    region = make_region([(warp(outer), [warp(h) for h in holes])])
+    assert region.area == pytest.approx(shape.area, rel=1e-9)
+
+
+@pytest.mark.parametrize("big", [1e308, -1e200, 1e151])
+def test_coordinates_beyond_the_float_range_are_refused(big: float) -> None:
+    # 1e308 on both sides of 0 overflowed the extent (a RuntimeWarning, a 500 in the service).
+    err = _error([([[0, 0], [big, 0], [0, -big]], [])])
+    assert "beyond 1e+150" in err.message
+    assert err.vertex is not None

@@ -1,0 +1,117 @@
+"""The size field's cost is bounded and the triangle estimate foresees the real mesh."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from engine import Cancelled, LimitExceeded, SizingParams, make_region, mesh_region
+from engine.boundary import Region
+from engine.sizing import build_size_field, estimate_triangles
+
+#: Cone evaluations a size-field query may take on average (the old all-pairs field took
+#: 130,000-260,000 on a 1e-6-wide spike).
+MAX_EVALUATIONS_PER_POINT = 200
+
+
+def _spike(width: float, length: float = 1.0, angle: float = 90.0) -> Region:
+    """The unit square with a straight spike ``width`` wide standing on its top side."""
+    d = np.array([np.cos(np.radians(angle)), np.sin(np.radians(angle))])
+    r = np.array([d[1], -d[0]]) * width / 2  # to the spike's right
+    base = np.array([0.5, 1.0])
+    tip = base + length * d
+    outer = [[0, 0], [1, 0], [1, 1], base + r, tip + r, tip - r, base - r, [0, 1]]
+    return make_region([(np.asarray(outer), [])])
+
+
+def _ellipse(n: int, a: float, b: float) -> Region:
+    t = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
+    return make_region([(np.c_[a * np.cos(t), b * np.sin(t)], [])])
+
+
+def _cost(region: Region, size: float) -> tuple[int, float, int]:
+    field = build_size_field(region, SizingParams(size=size))
+    x0, y0, x1, y1 = region.bounds
+    pts = np.random.default_rng(0).uniform([x0, y0], [x1, y1], (2000, 2))
+    _, work = field.evaluate(pts)
+    return field.samples, work / len(pts), estimate_triangles(region, field, cap=10_000_000)
+
+
+def test_a_one_micron_spike_is_cheap_and_refused() -> None:
+    region = _spike(1e-6)
+    samples, per_point, estimate = _cost(region, 0.5)
+    assert samples < 1_000  # the spike's parallel sides are a few linear pieces
+    assert per_point < MAX_EVALUATIONS_PER_POINT
+    # 2 sides of length 1 at 0.6e-6 spacing: over three million boundary nodes.
+    assert estimate > 3_000_000
+    with pytest.raises(LimitExceeded) as info:
+        mesh_region(region, SizingParams(size=0.5), max_triangles=1_000_000)
+    assert info.value.estimate > 1_000_000
+
+
+def test_a_digitised_ellipse_costs_what_its_vertices_ask() -> None:
+    # 20,000 vertices 0.3 apart at size 100: the real mesh had 292,706 triangles.
+    region = _ellipse(20_000, 1200.0, 700.0)
+    samples, per_point, estimate = _cost(region, 100.0)
+    assert samples <= 3 * 20_000
+    assert per_point < MAX_EVALUATIONS_PER_POINT
+    assert 0.8 * 292_706 <= estimate <= 1.2 * 292_706
+
+
+@pytest.mark.parametrize(
+    ("region", "size"),
+    [
+        (_spike(0.01), 0.5),
+        (_spike(0.001), 0.5),
+        (make_region([([[0, 0], [1, 0], [1, 0.01], [0, 0.01]], [])]), 0.05),
+        (make_region([([[0, 0], [1, 0], [1, 0.001], [1, 1], [0, 1]], [])]), 0.05),
+        (_ellipse(2_000, 120.0, 70.0), 20.0),
+    ],
+    ids=["spike-1e-2", "spike-1e-3", "channel-100-to-1", "short-segment", "digitised-ellipse"],
+)
+def test_estimate_within_a_fifth_of_the_real_count(region: Region, size: float) -> None:
+    sizing = SizingParams(size=size)
+    estimate = estimate_triangles(region, build_size_field(region, sizing))
+    mesh, _ = mesh_region(region, sizing)
+    assert 0.8 * mesh.n_triangles <= estimate <= 1.2 * mesh.n_triangles
+
+
+@settings(max_examples=15, deadline=None)
+@given(
+    log_width=st.floats(-6.0, -1.5),
+    length=st.floats(0.05, 1.0),
+    angle=st.floats(30.0, 150.0),
+)
+def test_random_thin_features_cost_bounded_work(
+    log_width: float, length: float, angle: float
+) -> None:
+    width = 10.0**log_width
+    region = _spike(width, length, angle)
+    samples, per_point, estimate = _cost(region, 0.5)
+    assert samples < 2_000
+    assert per_point < MAX_EVALUATIONS_PER_POINT
+    # At least the boundary nodes the gap asks for along both sides of the spike.
+    assert estimate >= 0.9 * 2 * length / (0.6 * width)
+    if width >= 0.02:  # meshes small enough to build here: the estimate is within a factor
+        mesh, _ = mesh_region(region, SizingParams(size=0.5))
+        assert mesh.n_triangles / 1.5 <= estimate <= 1.5 * mesh.n_triangles
+
+
+def test_every_meshing_stage_reports_progress_and_can_be_cancelled() -> None:
+    region = _spike(0.01)
+    seen: list[str] = []
+    mesh_region(region, SizingParams(size=0.5), progress=lambda s, f: seen.append(s))
+    assert {"sizing", "estimate", "discretize", "mesh", "relax", "collapse"} <= set(seen)
+    for stage in ("sizing", "estimate", "discretize", "relax"):
+        polls: list[str] = []
+
+        def stop(stage: str = stage, polls: list[str] = polls) -> bool:
+            return bool(polls) and polls[-1] == stage
+
+        with pytest.raises(Cancelled):
+            mesh_region(
+                region, SizingParams(size=0.5), should_stop=stop,
+                progress=lambda s, f, polls=polls: polls.append(s),
+            )  # fmt: skip
