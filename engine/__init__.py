@@ -31,6 +31,7 @@ from .quality import METRICS, Metric, TriangleQuality, register_metric, summariz
 from .result import ProgressFn, Result, SmoothOutcome, Snapshot, StopFn, SweepStats
 from .sizing import estimate_triangles
 from .smoothing import SMOOTHERS
+from .tags import MeshTags, Tagging, TagRun, tag_mesh
 
 __all__ = [
     "FITNESS",
@@ -42,6 +43,7 @@ __all__ = [
     "InvalidMesh",
     "LimitExceeded",
     "Mesh",
+    "MeshTags",
     "MeshingError",
     "Metric",
     "PipelineParams",
@@ -55,6 +57,8 @@ __all__ = [
     "Snapshot",
     "StopFn",
     "SweepStats",
+    "TagRun",
+    "Tagging",
     "TriangleQuality",
     "assess_mesh",
     "estimate_triangles",
@@ -65,6 +69,7 @@ __all__ = [
     "register_metric",
     "smooth_mesh",
     "summarize",
+    "tag_mesh",
     "triangle_quality",
     "validate_mesh",
     "warmup",
