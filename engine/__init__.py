@@ -28,6 +28,7 @@ from .mesh import Mesh, validate_mesh
 from .params import PipelineParams, SizingParams, SmoothingParams
 from .pipeline import assess_mesh, mesh_region, mesh_then_smooth, smooth_mesh, warmup
 from .quality import METRICS, Metric, TriangleQuality, register_metric, summarize, triangle_quality
+from .refinement import Refinement
 from .result import ProgressFn, Result, SmoothOutcome, Snapshot, StopFn, SweepStats
 from .sizing import estimate_triangles
 from .smoothing import SMOOTHERS
@@ -49,6 +50,7 @@ __all__ = [
     "PipelineParams",
     "PolygonPart",
     "ProgressFn",
+    "Refinement",
     "Region",
     "Result",
     "SizingParams",

@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 
 from .boundary import Region
 from .params import SizingParams
+from .refinement import refinement_features
 
 __all__ = [
     "GAP_FACTOR",
@@ -388,8 +389,9 @@ def build_size_field(region: Region, params: SizingParams) -> SizeField:
     a, b, prev, _ = _ring_segments(region)
     vxy, vh = _vertex_features(a, b, prev, size)
     gxy, gh = _gap_features(region, size)
-    fxy = np.concatenate([vxy, gxy])
-    fh = np.maximum(np.concatenate([vh, gh]), size_min)
+    rxy, rh = refinement_features(params.refinements)  # refinements are features too
+    fxy = np.concatenate([vxy, gxy, rxy])
+    fh = np.maximum(np.concatenate([vh, gh, rh]), size_min)
     keep = fh < size
     fxy, fh = _thin(fxy[keep], fh[keep], slope)
     x0, y0, x1, y1 = region.bounds
