@@ -32,6 +32,7 @@ from .refinement import Refinement
 from .result import ProgressFn, Result, SmoothOutcome, Snapshot, StopFn, SweepStats
 from .sizing import estimate_triangles
 from .smoothing import SMOOTHERS
+from .subdomains import Subdomains, mesh_subdomains
 from .tags import MeshTags, Tagging, TagRun, tag_mesh
 
 __all__ = [
@@ -58,6 +59,7 @@ __all__ = [
     "SmoothingParams",
     "Snapshot",
     "StopFn",
+    "Subdomains",
     "SweepStats",
     "TagRun",
     "Tagging",
@@ -66,6 +68,7 @@ __all__ = [
     "estimate_triangles",
     "make_region",
     "mesh_region",
+    "mesh_subdomains",
     "mesh_then_smooth",
     "node_fitness",
     "register_metric",

@@ -28,7 +28,7 @@ from .boundary import Region
 from .errors import EngineError
 from .mesh import Mesh
 
-__all__ = ["MeshTags", "TagRun", "Tagging", "default_tag_names", "tag_mesh"]
+__all__ = ["MeshTags", "TagRun", "Tagging", "default_tag_names", "interface_edges", "tag_mesh"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -71,7 +71,8 @@ class Tagging:
 class MeshTags:
     """Tagged lines and triangle regions of a mesh; ids are 1-based (0 is no tag)."""
 
-    lines: IntArray  #: (e, 2) mesh edges carrying a tag, boundary ones with the mesh on the left
+    #: (e, 2) tagged mesh edges: the boundary (mesh on the left), then interfaces between regions
+    lines: IntArray
     line_tag: IntArray  #: (e,) the tag id of each line
     tags: dict[str, int]  #: tag name -> id
     region: IntArray  #: (m,) the region id of each triangle
@@ -124,6 +125,24 @@ def triangle_regions(mesh: Mesh, region: Region) -> IntArray:
     return out
 
 
+def interface_edges(triangles: IntArray, region: IntArray) -> tuple[IntArray, IntArray]:
+    """Edges (k, 2) between triangles of different regions, and the two regions (k, 2), each
+    pair sorted.
+
+    >>> tri = np.array([[0, 1, 2], [0, 2, 3], [0, 3, 4]])
+    >>> [a.tolist() for a in interface_edges(tri, np.array([1, 1, 2]))]
+    [[[0, 3]], [[1, 2]]]
+    """
+    sides = np.stack([triangles[:, [1, 2]], triangles[:, [2, 0]], triangles[:, [0, 1]]], axis=1)
+    sides = np.sort(sides.reshape(-1, 2), axis=1)
+    owner = np.repeat(region, 3)
+    order = np.lexsort((sides[:, 1], sides[:, 0]))
+    s, o = sides[order], owner[order]
+    cross = (s[1:] == s[:-1]).all(axis=1) & (o[1:] != o[:-1])
+    pairs = np.sort(np.stack([o[:-1][cross], o[1:][cross]], axis=1), axis=1)
+    return s[1:][cross].astype(np.int64), pairs.astype(np.int64)
+
+
 def tag_mesh(mesh: Mesh, region: Region, tagging: Tagging | None = None) -> MeshTags:
     """Tag every boundary edge of ``mesh`` (a mesh of ``region``) and give each triangle its
     region. Raises :class:`InvalidTag` for a run along no boundary edge."""
@@ -147,6 +166,20 @@ def tag_mesh(mesh: Mesh, region: Region, tagging: Tagging | None = None) -> Mesh
         if not on.any():
             raise InvalidTag(f"tag run {i} ({run.name!r}) follows no boundary edge", run=i)
         tag[on] = names.setdefault(run.name, len(names) + 1)
+    region_id = triangle_regions(mesh, region)
+    parts = region_names(region, tagging)
+    inner, pairs = interface_edges(mesh.triangles, region_id)
+    if len(inner):  # subdomains: each interface is tagged "<region a>|<region b>"
+        edges = np.concatenate([edges, inner])
+        tag = np.concatenate(
+            [
+                tag,
+                [
+                    names.setdefault(f"{parts[a - 1]}|{parts[b - 1]}", len(names) + 1)
+                    for a, b in pairs
+                ],
+            ]
+        ).astype(np.int64)
     used = np.unique(tag)
     # Ids stay those of first naming, so defaults a run replaced everywhere leave a gap rather
     # than renumbering the runs.
@@ -157,7 +190,7 @@ def tag_mesh(mesh: Mesh, region: Region, tagging: Tagging | None = None) -> Mesh
         lines=edges.astype(np.int64),
         line_tag=tag,
         tags=tags,
-        region=triangle_regions(mesh, region),
-        regions={n: i + 1 for i, n in enumerate(region_names(region, tagging))},
+        region=region_id,
+        regions={n: i + 1 for i, n in enumerate(parts)},
         fixed=fixed,
     )
