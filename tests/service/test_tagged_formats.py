@@ -127,3 +127,20 @@ def test_geojson_carries_regions_and_tagged_lines() -> None:
         for f in lines
     }
     assert found == _tagged_edges(DOC)
+
+
+@pytest.mark.parametrize("fmt", ["png", "svg"])
+def test_pictures_colour_by_region_with_a_legend(fmt: str) -> None:
+    picture = FORMATS[fmt].render(StoredResult(doc=DOC), {"color": "region"})
+    plain = FORMATS[fmt].render(StoredResult(doc=DOC), {})
+    assert picture != plain
+    if fmt == "svg":  # text is drawn as paths: the legend's entries are labelled groups
+        assert picture.count(b'<g id="legend') == 1
+
+
+def test_colour_by_region_needs_regions() -> None:
+    doc = {k: v for k, v in DOC.items() if k not in ("regions", "lines")}
+    doc["cell_data"] = {k: v for k, v in DOC["cell_data"].items() if k != "region"}
+    with pytest.raises(WriteError, match="no regions") as err:
+        FORMATS["png"].render(StoredResult(doc=doc), {"color": "region"})
+    assert err.value.parameter == "color"
