@@ -15,6 +15,7 @@ Arrays in, frozen dataclasses out; no web, storage or logging configuration here
 from __future__ import annotations
 
 from .boundary import PolygonPart, Region, make_region
+from .constraints import Constrained, InvalidConstraint, mesh_with_constraints
 from .errors import (
     Cancelled,
     EngineError,
@@ -40,8 +41,10 @@ __all__ = [
     "METRICS",
     "SMOOTHERS",
     "Cancelled",
+    "Constrained",
     "EngineError",
     "InvalidBoundary",
+    "InvalidConstraint",
     "InvalidMesh",
     "LimitExceeded",
     "Mesh",
@@ -70,6 +73,7 @@ __all__ = [
     "mesh_region",
     "mesh_subdomains",
     "mesh_then_smooth",
+    "mesh_with_constraints",
     "node_fitness",
     "register_metric",
     "smooth_mesh",

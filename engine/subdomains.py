@@ -36,7 +36,7 @@ from .sizing import SizeField, build_size_field
 from .smoothing import smooth_points
 from .tags import interface_edges
 
-__all__ = ["PinnedMesh", "Subdomains", "mesh_subdomains"]
+__all__ = ["PinnedMesh", "Subdomains", "improve_held", "mesh_subdomains", "split_segment"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -102,7 +102,7 @@ def _insert(ring: FloatArray, extra: FloatArray, tol: float) -> FloatArray:
     return np.concatenate(out)
 
 
-def _split(a: FloatArray, b: FloatArray, fields: Sequence[SizeField]) -> FloatArray:
+def split_segment(a: FloatArray, b: FloatArray, fields: Sequence[SizeField]) -> FloatArray:
     """Points splitting ``a -> b`` into ``ceil(integral of ds / h)`` equal pieces of that
     integral, ``h`` the smaller of ``fields``."""
     length = float(np.hypot(*(b - a)))
@@ -147,7 +147,7 @@ def _split_shared(
                 if _key(b, a) in done:  # the neighbour split it the other way
                     pieces.append(done[_key(b, a)][::-1])
                     continue
-                pts = _split(a, b, [fields[i], fields[j]])
+                pts = split_segment(a, b, [fields[i], fields[j]])
                 done[_key(a, b)] = pts
                 pieces.append(pts)
             rings.append(np.concatenate(pieces))
@@ -251,23 +251,28 @@ def mesh_subdomains(
         > 1e-6 * outline.length
     ):
         raise MeshingError("the subdomain meshes do not conform along a shared edge")
+    # No flip crosses an interface, so triangles keep their regions through swapping.
+    locked, _ = interface_edges(mesh.triangles, region)
+    pinned = np.zeros(mesh.n_points, dtype=bool)
+    pinned[locked.ravel()] = True
     return Subdomains(
-        result=_improve(mesh, region, params, rng),
+        result=improve_held(mesh, locked, pinned, params, rng),
         region=Region(tuple(split)),
         triangle_region=region,
     )
 
 
-def _improve(
-    mesh: Mesh, region: IntArray, params: PipelineParams, rng: np.random.Generator
+def improve_held(
+    mesh: Mesh,
+    locked: IntArray,
+    pinned: BoolArray,
+    params: PipelineParams,
+    rng: np.random.Generator,
 ) -> Result:
-    """Swap (interface edges held) and smooth (interface nodes held); swaps keep triangles'
-    regions because no flip crosses an interface."""
+    """Swap with the ``locked`` edges held and smooth with the ``pinned`` nodes held (as
+    boundary nodes); the stages as :func:`engine.mesh_then_smooth` reports them."""
     from .swap import swap_diagonals
 
-    locked, _ = interface_edges(mesh.triangles, region)
-    pinned = np.zeros(mesh.n_points, dtype=bool)
-    pinned[locked.ravel()] = True
     first = assess_mesh(mesh, params.smoothing)
     held = PinnedMesh(mesh.points, mesh.triangles, pinned)
     swapped = (

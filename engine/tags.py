@@ -17,7 +17,7 @@ input segment. This needs nothing from the mesher and holds whatever discretised
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -143,9 +143,17 @@ def interface_edges(triangles: IntArray, region: IntArray) -> tuple[IntArray, In
     return s[1:][cross].astype(np.int64), pairs.astype(np.int64)
 
 
-def tag_mesh(mesh: Mesh, region: Region, tagging: Tagging | None = None) -> MeshTags:
+def tag_mesh(
+    mesh: Mesh,
+    region: Region,
+    tagging: Tagging | None = None,
+    lines: Mapping[str, ArrayLike] | None = None,
+    pinned: ArrayLike = (),
+) -> MeshTags:
     """Tag every boundary edge of ``mesh`` (a mesh of ``region``) and give each triangle its
-    region. Raises :class:`InvalidTag` for a run along no boundary edge."""
+    region. ``lines`` adds named edge sets ((k, 2) node pairs: constraint lines) and ``pinned``
+    nodes that are fixed besides those on lines (constraint points). Raises
+    :class:`InvalidTag` for a run along no boundary edge."""
     tagging = tagging or Tagging()
     edges = mesh.boundary_edges
     mid = mesh.points[edges].mean(axis=1)
@@ -180,12 +188,17 @@ def tag_mesh(mesh: Mesh, region: Region, tagging: Tagging | None = None) -> Mesh
                 ],
             ]
         ).astype(np.int64)
+    for name, more in (lines or {}).items():
+        pairs_ = np.asarray(more, dtype=np.int64).reshape(-1, 2)
+        edges = np.concatenate([edges, pairs_])
+        tag = np.concatenate([tag, np.full(len(pairs_), names.setdefault(name, len(names) + 1))])
     used = np.unique(tag)
     # Ids stay those of first naming, so defaults a run replaced everywhere leave a gap rather
     # than renumbering the runs.
     tags = {n: t for n, t in names.items() if t in used}
     fixed = np.zeros(mesh.n_points, dtype=bool)
     fixed[edges.ravel()] = True
+    fixed[np.asarray(pinned, dtype=np.int64)] = True
     return MeshTags(
         lines=edges.astype(np.int64),
         line_tag=tag,
