@@ -15,6 +15,7 @@ from engine import PipelineParams, Region, SizingParams, SmoothingParams, make_r
 from engine.constraints import Constrained, InvalidConstraint, mesh_with_constraints
 from engine.errors import InvalidBoundary
 from engine.mesh import edge_table, validate_mesh
+from engine.refinement import Refinement
 
 from .regions import Rings, region_of, regions
 
@@ -94,9 +95,13 @@ def inside(draw: st.DrawFn, region: Region) -> list[float]:
     return p
 
 
-@settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(
+    max_examples=20,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much],
+)
 @given(case=regions(), data=st.data())
-def test_random_regions_with_random_constraints_stay_valid_and_keep_them(
+def test_random_regions_refinements_and_constraints_stay_valid_and_keep_them(
     case: tuple[Rings, float], data: st.DataObject
 ) -> None:
     rings, size = case
@@ -112,8 +117,15 @@ def test_random_regions_with_random_constraints_stay_valid_and_keep_them(
             a, b = data.draw(inside(region)), data.draw(inside(region))
             assume(region.to_shapely().covers(shapely.LineString([a, b])))
             cs.append(line(a, b))
+    refine = tuple(
+        Refinement(point(*data.draw(inside(region))), data.draw(st.floats(0.1, 0.5)) * size)
+        for _ in range(data.draw(st.integers(0, 2)))
+    )
+    params = PipelineParams(
+        SizingParams(size, refinements=refine), smoothing=SmoothingParams("laplacian")
+    )
     try:
-        out = mesh_with_constraints(region, _params("laplacian", size), cs)
+        out = mesh_with_constraints(region, params, cs)
     except InvalidConstraint:  # nearly touching pieces: refused by design
         assume(False)
     _check(out, region, cs)
