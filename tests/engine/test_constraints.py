@@ -143,3 +143,12 @@ def test_constraint_lines_are_tagged_and_their_nodes_fixed() -> None:
     at = int(np.argmin(np.hypot(*(mesh.points - [0.3, 0.8]).T)))
     assert tags.fixed[at]
     assert tags.fixed[out.nodes].all()
+
+
+def test_the_same_seed_gives_the_same_constrained_mesh() -> None:
+    cs = [line([0.15, 0.2], [0.5, 0.45]), point(0.3, 0.7)]
+    a, b = (
+        mesh_with_constraints(SQUARE, _params("ga"), cs, np.random.default_rng(3)) for _ in range(2)
+    )
+    assert np.array_equal(a.result.smoothed.mesh.points, b.result.smoothed.mesh.points)
+    assert np.array_equal(a.result.smoothed.mesh.triangles, b.result.smoothed.mesh.triangles)

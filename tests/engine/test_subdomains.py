@@ -111,3 +111,12 @@ def test_random_strips_with_kinked_interfaces_conform(
     parts = [([*a, *b[::-1]], []) for a, b in itertools.pairwise(lines)]
     sub = mesh_subdomains(parts, _params("none"), sizes=sizes[: len(parts)])
     _check(sub, [shapely.Polygon(p[0]) for p in parts])
+
+
+def test_the_same_seed_gives_the_same_subdomain_mesh() -> None:
+    a, b = (
+        mesh_subdomains([LEFT, RIGHT], _params("ga"), [0.25, 0.1], np.random.default_rng(5))
+        for _ in range(2)
+    )
+    assert np.array_equal(a.result.smoothed.mesh.points, b.result.smoothed.mesh.points)
+    assert np.array_equal(a.triangle_region, b.triangle_region)
