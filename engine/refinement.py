@@ -70,8 +70,10 @@ class Refinement:
 
 def _samples(geom: shapely.Geometry, step: float) -> FloatArray:
     """Points on ``geom`` no further than ``step`` apart, and a ``step`` grid inside its areas."""
-    lines = shapely.segmentize(geom.boundary if geom.area > 0 else geom, step)
-    pts = [shapely.get_coordinates(lines), shapely.get_coordinates(geom)]
+    pts = [shapely.get_coordinates(geom)]
+    if geom.length > 0:  # a zero-length line is its point (GEOS cannot segmentize it)
+        lines = shapely.segmentize(geom.boundary if geom.area > 0 else geom, step)
+        pts.append(shapely.get_coordinates(lines))
     if geom.area > 0:
         x0, y0, x1, y1 = geom.bounds
         nx, ny = math.ceil((x1 - x0) / step) + 1, math.ceil((y1 - y0) / step) + 1

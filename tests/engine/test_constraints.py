@@ -13,11 +13,10 @@ from hypothesis import strategies as st
 
 from engine import PipelineParams, Region, SizingParams, SmoothingParams, make_region, tag_mesh
 from engine.constraints import Constrained, InvalidConstraint, mesh_with_constraints
-from engine.errors import InvalidBoundary
 from engine.mesh import edge_table, validate_mesh
 from engine.refinement import Refinement
 
-from .regions import Rings, region_of, regions
+from .control_strategies import inside, valid_regions
 
 SQUARE = make_region([([[0, 0], [1, 0], [1, 1], [0, 1]], [[[0.6, 0.6], [0.8, 0.6], [0.7, 0.8]]])])
 
@@ -87,28 +86,16 @@ def test_bad_constraints_are_located_errors(
     assert err.value.index == index
 
 
-@st.composite
-def inside(draw: st.DrawFn, region: Region) -> list[float]:
-    x0, y0, x1, y1 = region.bounds
-    p = [draw(st.floats(x0, x1)), draw(st.floats(y0, y1))]
-    assume(region.to_shapely().contains(shapely.Point(p)))
-    return p
-
-
 @settings(
     max_examples=20,
     deadline=None,
     suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much],
 )
-@given(case=regions(), data=st.data())
+@given(case=valid_regions(), data=st.data())
 def test_random_regions_refinements_and_constraints_stay_valid_and_keep_them(
-    case: tuple[Rings, float], data: st.DataObject
+    case: tuple[Region, float], data: st.DataObject
 ) -> None:
-    rings, size = case
-    try:
-        region = region_of(rings)
-    except InvalidBoundary:  # the strategy can draw a degenerate star; nothing to mesh
-        assume(False)
+    region, size = case
     cs: list[dict[str, Any]] = []
     for _ in range(data.draw(st.integers(1, 3))):
         if data.draw(st.booleans()):

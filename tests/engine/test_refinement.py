@@ -6,15 +6,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import shapely
-from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from engine import SizingParams, make_region, mesh_region
-from engine.errors import InvalidBoundary
+from engine import Region, SizingParams, make_region, mesh_region
 from engine.refinement import InvalidRefinement, Refinement
 from engine.sizing import build_size_field
 
-from .regions import Rings, assert_conforming, region_of, regions
+from .control_strategies import valid_regions
+from .regions import assert_conforming
 
 SQUARE = make_region([([[0, 0], [2, 0], [2, 2], [0, 2]], [])])
 POINT = {"type": "Point", "coordinates": [1.0, 1.0]}
@@ -94,15 +94,17 @@ def refinements(draw: st.DrawFn, bounds: tuple[float, float, float, float]) -> R
 
 
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(case=regions(), data=st.data())
+@given(case=valid_regions(), data=st.data())
 def test_random_regions_with_random_refinements_mesh_valid_and_conforming(
-    case: tuple[Rings, float], data: st.DataObject
+    case: tuple[Region, float], data: st.DataObject
 ) -> None:
-    rings, size = case
-    try:
-        region = region_of(rings)
-    except InvalidBoundary:  # the strategy can draw a degenerate star; nothing to mesh
-        assume(False)
+    region, size = case
     refs = tuple(data.draw(st.lists(refinements(region.bounds), min_size=1, max_size=3)))
     mesh, _ = mesh_region(region, SizingParams(size, refinements=refs))
     assert_conforming(mesh, region)
+
+
+def test_a_zero_length_line_refines_like_its_point() -> None:
+    dot = {"type": "LineString", "coordinates": [[1.0, 1.0], [1.0, 1.0]]}
+    xy = np.random.default_rng(2).uniform(0, 2, (300, 2))
+    assert np.array_equal(_field(Refinement(dot, 0.02))(xy), _field(Refinement(POINT, 0.02))(xy))
