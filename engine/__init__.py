@@ -15,6 +15,7 @@ Arrays in, frozen dataclasses out; no web, storage or logging configuration here
 from __future__ import annotations
 
 from .boundary import PolygonPart, Region, make_region
+from .constraints import Constrained, InvalidConstraint, mesh_with_constraints
 from .errors import (
     Cancelled,
     EngineError,
@@ -28,25 +29,32 @@ from .mesh import Mesh, validate_mesh
 from .params import PipelineParams, SizingParams, SmoothingParams
 from .pipeline import assess_mesh, mesh_region, mesh_then_smooth, smooth_mesh, warmup
 from .quality import METRICS, Metric, TriangleQuality, register_metric, summarize, triangle_quality
+from .refinement import Refinement
 from .result import ProgressFn, Result, SmoothOutcome, Snapshot, StopFn, SweepStats
 from .sizing import estimate_triangles
 from .smoothing import SMOOTHERS
+from .subdomains import Subdomains, mesh_subdomains
+from .tags import MeshTags, Tagging, TagRun, tag_mesh
 
 __all__ = [
     "FITNESS",
     "METRICS",
     "SMOOTHERS",
     "Cancelled",
+    "Constrained",
     "EngineError",
     "InvalidBoundary",
+    "InvalidConstraint",
     "InvalidMesh",
     "LimitExceeded",
     "Mesh",
+    "MeshTags",
     "MeshingError",
     "Metric",
     "PipelineParams",
     "PolygonPart",
     "ProgressFn",
+    "Refinement",
     "Region",
     "Result",
     "SizingParams",
@@ -54,17 +62,23 @@ __all__ = [
     "SmoothingParams",
     "Snapshot",
     "StopFn",
+    "Subdomains",
     "SweepStats",
+    "TagRun",
+    "Tagging",
     "TriangleQuality",
     "assess_mesh",
     "estimate_triangles",
     "make_region",
     "mesh_region",
+    "mesh_subdomains",
     "mesh_then_smooth",
+    "mesh_with_constraints",
     "node_fitness",
     "register_metric",
     "smooth_mesh",
     "summarize",
+    "tag_mesh",
     "triangle_quality",
     "validate_mesh",
     "warmup",

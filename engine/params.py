@@ -6,6 +6,8 @@ import math
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
+from .refinement import Refinement
+
 __all__ = ["SELECTIONS", "PipelineParams", "SizingParams", "SmoothingParams"]
 
 #: The GA's node selections (:mod:`engine.ga`): "poor" is the default, "all" the paper's.
@@ -24,6 +26,8 @@ class SizingParams:
     growth: float = 1.2  #: largest size ratio between neighbouring elements
     size_min: float | None = None  #: lower clamp of the local size
     size_max: float | None = None  #: upper clamp of the local size
+    #: Local sizes on geometries (:mod:`engine.refinement`), combined with the rest by the minimum.
+    refinements: tuple[Refinement, ...] = ()
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.size) and self.size > 0):

@@ -29,6 +29,7 @@ from .boundary import Region
 from .conetree import ConeTree, build_tree, cone_min
 from .errors import Cancelled, LimitExceeded
 from .params import SizingParams
+from .refinement import refinement_features
 from .result import ProgressFn, StopFn
 
 __all__ = [
@@ -366,9 +367,10 @@ def build_size_field(
         raise Cancelled("stopped while sizing")
     ga, gb, g0, g1, samples = _gap_features(region, vertex_field, should_stop)
     progress("sizing", 0.8)
-    fa, fb = np.concatenate([vxy, ga]), np.concatenate([vxy, gb])
-    ha = np.maximum(np.concatenate([vh, g0]), size_min)
-    hb = np.maximum(np.concatenate([vh, g1]), size_min)
+    rxy, rh = refinement_features(params.refinements)  # refinements are point features too
+    fa, fb = np.concatenate([vxy, ga, rxy]), np.concatenate([vxy, gb, rxy])
+    ha = np.maximum(np.concatenate([vh, g0, rh]), size_min)
+    hb = np.maximum(np.concatenate([vh, g1, rh]), size_min)
     keep = np.minimum(ha, hb) < size
     tree = build_tree(size, slope, size_min, (x0, y0), fa[keep], fb[keep], ha[keep], hb[keep])
     progress("sizing", 1.0)

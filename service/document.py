@@ -9,10 +9,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from engine import METRICS, Mesh, Result, Snapshot, validate_mesh
+from engine import METRICS, Mesh, MeshTags, Result, Snapshot, validate_mesh
 from engine.errors import InvalidMesh
 
-__all__ = ["cell_data", "mesh_from_document", "result_document"]
+__all__ = ["add_tags", "cell_data", "mesh_from_document", "result_document"]
 
 
 def cell_data(snap: Snapshot) -> dict[str, list[float]]:
@@ -21,15 +21,19 @@ def cell_data(snap: Snapshot) -> dict[str, list[float]]:
 
 
 def result_document(
-    result: Result, to_lonlat: Callable[[NDArray[np.float64]], NDArray[np.float64]] | None = None
+    result: Result,
+    to_lonlat: Callable[[NDArray[np.float64]], NDArray[np.float64]] | None = None,
+    tags: MeshTags | None = None,
 ) -> dict[str, Any]:
     """The mesh document of ``result``.
 
     ``points``/``triangles``/``point_data``/``cell_data`` describe the final mesh; ``initial``
     holds the mesh as first meshed (before swapping and smoothing) with its own cell data, so
     clients can compare; ``summary`` holds each stage's figures, parameters, timings and the
-    smoothing history. With ``to_lonlat`` (a region given in wgs84) points are lon/lat and
-    ``points_local`` keeps the metric coordinates the figures refer to.
+    smoothing history. With ``tags`` (:func:`engine.tags.tag_mesh` of the final mesh) it holds
+    the tagged ``lines``, ``line_data.tag``, ``tags``, ``regions``, ``cell_data.region`` and
+    ``point_data.fixed`` (:func:`add_tags`). With ``to_lonlat`` (a region given in wgs84)
+    points are lon/lat and ``points_local`` keeps the metric coordinates the figures refer to.
     """
     final, first = result.smoothed, result.initial
 
@@ -60,10 +64,22 @@ def result_document(
             "history": [asdict(h) for h in result.history],
         },
     }
+    if tags is not None:
+        add_tags(doc, tags)
     if to_lonlat is not None:
         doc["points_local"] = final.mesh.points.tolist()
         doc["crs"] = "wgs84"
     return doc
+
+
+def add_tags(doc: dict[str, Any], tags: MeshTags) -> None:
+    """Add the tagged lines, tag and region tables, triangle regions and fixed nodes to ``doc``."""
+    doc["lines"] = tags.lines.tolist()
+    doc["line_data"] = {"tag": tags.line_tag.tolist()}
+    doc["tags"] = dict(tags.tags)
+    doc["regions"] = dict(tags.regions)
+    doc["cell_data"]["region"] = tags.region.tolist()
+    doc["point_data"]["fixed"] = tags.fixed.astype(int).tolist()
 
 
 def mesh_from_document(obj: Any) -> Mesh:

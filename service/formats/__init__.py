@@ -1,10 +1,11 @@
 """Result formats: one table of readers and writers keyed by name and extension (as meshio's).
 
 ``json`` is the mesh document as stored; ``geojson`` a FeatureCollection of triangles carrying
-their quality figures; ``vtu`` (ParaView) and ``msh`` (Gmsh 2.2, binary) go through meshio with
-node fitness as point data and triangle figures as cell data; ``svg`` and ``png`` are pictures
-drawn by :mod:`service.render`, whose query options (``color``, ``compare``, ``width``...) are
-read there. ``json``, ``vtu`` and ``msh`` can also be read back.
+their quality figures and region, and of tagged lines; ``vtu`` (ParaView) and ``msh`` (Gmsh 4.1,
+or 2.2 with ``version=2.2``; binary) go through meshio with node fitness as point data, triangle
+figures as cell data and tagged lines as line cells (physical groups in MSH); ``svg`` and
+``png`` are pictures drawn by :mod:`service.render`, whose query options (``color``,
+``compare``, ``width``...) are read there. ``json``, ``vtu`` and ``msh`` can also be read back.
 
 >>> sorted(FORMATS)
 ['geojson', 'json', 'msh', 'png', 'svg', 'vtu']
@@ -14,7 +15,7 @@ read there. ``json``, ``vtu`` and ``msh`` can also be read back.
 
 from __future__ import annotations
 
-from .meshio_io import meshio_reader, meshio_writer
+from .meshio_io import meshio_reader, meshio_writer, msh_writer
 from .native import read_json, write_geojson, write_json
 from .pictures import PICTURE_OPTIONS, picture_writer
 from .registry import (
@@ -77,9 +78,9 @@ register_format(
     [".msh"],
     "application/octet-stream",
     reader=meshio_reader("gmsh", ".msh"),
-    # Binary: meshio 5.3's ASCII writer prints numpy 2 scalars as "np.float64(...)".
-    writer=meshio_writer("gmsh22", ".msh", binary=True),
-    description="Gmsh 2.2 (binary)",
+    writer=msh_writer(),
+    description="Gmsh 4.1 (binary; version=2.2 for 2.2) with a named physical group per tag "
+    "and region",
 )
 register_format(
     "svg",

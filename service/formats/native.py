@@ -39,16 +39,20 @@ def read_json(data: bytes) -> dict[str, Any]:
 
 
 def write_geojson(result: StoredResult, options: Mapping[str, str]) -> bytes:
-    """A FeatureCollection of the triangles, each carrying its ``cell_data`` figures."""
+    """A FeatureCollection of the triangles, each carrying its ``cell_data`` figures (and its
+    ``region_name``), then of the tagged lines, each carrying its ``tag`` and ``tag_name``."""
     doc = result.doc
     pts = doc["points"]
     cells = doc.get("cell_data", {})
     names = list(cells)
+    region_names = _region_names(doc)
     features = []
     for t, tri in enumerate(doc["triangles"]):
         ring = [pts[tri[0]], pts[tri[1]], pts[tri[2]], pts[tri[0]]]
         props: dict[str, Any] = {"triangle": t}
         props.update((name, cells[name][t]) for name in names)
+        if region_names is not None:
+            props["region_name"] = region_names[t]
         features.append(
             {
                 "type": "Feature",
@@ -56,4 +60,32 @@ def write_geojson(result: StoredResult, options: Mapping[str, str]) -> bytes:
                 "properties": props,
             }
         )
+    features += _line_features(doc)
     return orjson.dumps({"type": "FeatureCollection", "features": features})
+
+
+def _names(table: Mapping[str, int]) -> dict[int, str]:
+    return {int(v): str(k) for k, v in table.items()}
+
+
+def _region_names(doc: Mapping[str, Any]) -> list[str] | None:
+    """The region name of each triangle, when the document names regions."""
+    if "regions" not in doc or "region" not in doc.get("cell_data", {}):
+        return None
+    names = _names(doc["regions"])
+    return [names.get(int(r), "") for r in doc["cell_data"]["region"]]
+
+
+def _line_features(doc: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """A LineString per tagged line, with its tag id and name."""
+    pts = doc["points"]
+    tags = doc.get("line_data", {}).get("tag", [])
+    names = _names(doc.get("tags", {}))
+    return [
+        {
+            "type": "Feature",
+            "geometry": {"type": "LineString", "coordinates": [pts[i], pts[j]]},
+            "properties": {"line": n, "tag": int(t), "tag_name": names.get(int(t), "")},
+        }
+        for n, ((i, j), t) in enumerate(zip(doc.get("lines", []), tags, strict=True))
+    ]

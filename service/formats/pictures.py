@@ -29,7 +29,7 @@ def picture_options() -> str:
     from ..render import METRICS
 
     return (
-        f"triangles coloured by quality; options color={'|'.join(METRICS)}, compare=1 "
+        f"triangles coloured by quality; options color={'|'.join(METRICS)}|region, compare=1 "
         "(before and after with quality histograms), width, height, worst, edges, vmin, vmax"
     )
 

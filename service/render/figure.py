@@ -22,6 +22,7 @@ from .panels import (
     panels_of,
     stats_lines,
 )
+from .regions import REGION, region_figure
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -241,6 +242,11 @@ def _figure(doc: Mapping[str, Any], options: PictureOptions) -> tuple[Figure, tu
     from matplotlib.figure import Figure
     from matplotlib.layout_engine import ConstrainedLayoutEngine
 
+    if options.color == REGION:  # categorical: a legend, not a colour scale
+        pts = np.asarray(doc["points"], dtype=np.float64).reshape(-1, 2)
+        span = np.ptp(pts, axis=0)
+        size = _size(options, float(span[1] * aspect_of(doc, pts) / max(span[0], 1e-300)))
+        return region_figure(doc, options, size), size
     metric = METRICS[options.color]
     panels = panels_of(doc, options)
     aspect = aspect_of(doc, panels[-1].points)

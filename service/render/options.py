@@ -95,8 +95,9 @@ class PictureOptions:
         ('fitness', True, 800, 0)
         """
         color = query.get("color", cls.color)
-        if color not in METRICS:
-            raise PictureError("color", f"unknown color {color!r}; choose one of {sorted(METRICS)}")
+        if color not in METRICS and color != "region":  # region: see service.render.regions
+            choices = sorted([*METRICS, "region"])
+            raise PictureError("color", f"unknown color {color!r}; choose one of {choices}")
         values: dict[str, Any] = {"color": color}
         for name in ("compare", "edges"):
             if name in query:

@@ -8,7 +8,8 @@ import {
   LonLatDisplay, SQUARE_METRES_PER_UNIT, crsChoices, crsOf, forDisplay, isGeographic, partsForDisplay,
 } from "./geo.js";
 import { FINAL, JobList, stageLabel, watchJob } from "./jobs.js";
-import { METRICS, colorRange, meshesOf } from "./meshdata.js";
+import { METRICS, colorRange, meshesOf, namesById } from "./meshdata.js";
+import { TAG_COLORS } from "./view.js";
 import { ParamsForm } from "./params.js";
 import { EXAMPLES, estimateTriangles, parseRegion, regionStats, suggestSize } from "./region.js";
 import { renderDownloads, renderSummary } from "./summary.js";
@@ -412,19 +413,38 @@ function showMesh(fit = false) {
   const metric = METRICS[state.colorBy];
   // One scale for before and after, so the two compare by colour.
   const all = [job.meshes.after, job.meshes.before].filter(Boolean).map((m) => m.values(state.colorBy)).filter(Boolean);
-  const [lo, hi] = colorRange(metric, all);
+  let [lo, hi] = colorRange(metric, all);
+  const regionIds = mesh.cell.region;
+  if (state.colorBy === "region") [lo, hi] = [1, regionIds.reduce((m, v) => Math.max(m, v), 2)];
+  document.querySelector("[data-color=region]").hidden = !regionIds;
   if (view.mesh !== mesh) view.setMesh(mesh);
   view.setColors(mesh.values(state.colorBy), metric.on === "point", lo, hi);
   if (fit) fitView();
   for (const b of document.querySelectorAll("[data-color]")) b.classList.toggle("on", b.dataset.color === state.colorBy);
   for (const b of document.querySelectorAll("[data-which]")) b.classList.toggle("on", b.dataset.which === state.which);
   $("legend").hidden = false;
-  $("legend-title").textContent = metric.label;
+  $("legend-title").textContent = state.colorBy === "region"
+    ? `region: ${[...namesById(job.doc.regions).values()].join(", ")}`
+    : metric.label;
+  renderTagLegend($("legend-tags"), mesh, job.doc.tags);
   $("legend-lo").textContent = lo.toFixed(2);
   $("legend-hi").textContent = hi.toFixed(2);
   $("legend-worst").textContent = view.showWorst && mesh.worst.length
     ? `red: the ${mesh.worst.length} lowest-quality triangles`
     : "";
+}
+
+/** One coloured name per tag drawn on the mesh (the overlay's colours). */
+function renderTagLegend(box, mesh, tags) {
+  box.replaceChildren();
+  if (!mesh.lines) return;
+  const names = namesById(tags);
+  for (const id of [...new Set(mesh.lineTag)].sort((a, b) => a - b)) {
+    const span = document.createElement("span");
+    span.textContent = names.get(id) || `#${id}`;
+    span.style.color = TAG_COLORS[(id - 1) % TAG_COLORS.length];
+    box.append(span);
+  }
 }
 
 function drawHistograms() {

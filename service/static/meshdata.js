@@ -6,7 +6,16 @@
 export const METRICS = {
   quality: { label: "triangle quality (1 = equilateral)", on: "cell", ideal: 1, worst: 0, step: 0.1 },
   fitness: { label: "node fitness", on: "point", ideal: 1, worst: 0, step: 0.1 },
+  // Region ids are categories: the viewer scales them from the first to the last id.
+  region: { label: "region", on: "cell", ideal: 1, worst: 0, step: 1 },
 };
+
+/** Names by id of a document's `tags` or `regions` table (name -> id). */
+export function namesById(table) {
+  const out = new Map();
+  for (const [name, id] of Object.entries(table || {})) out.set(id, name);
+  return out;
+}
 
 /**
  * The colour scale [bad end, ideal] of a metric over some arrays of values: from the worst
@@ -59,7 +68,12 @@ export class MeshData {
       quality: floats(cells.quality),
       min_angle: floats(cells.min_angle),
       max_angle: floats(cells.max_angle),
+      region: floats(cells.region),
     };
+    // Tagged lines (boundary runs, interfaces, constraint lines): node pairs and tag ids.
+    const lineData = part.line_data || {};
+    this.lines = part.lines && lineData.tag ? Uint32Array.from(part.lines.flat()) : null;
+    this.lineTag = this.lines ? Uint32Array.from(lineData.tag) : null;
     this.node = { fitness: floats(nodeValues) };
     this._edges();
     this.worst = this._worst(worstCount);

@@ -7,6 +7,8 @@ import { Canvas2DRenderer } from "./canvas2d.js";
 import { GLRenderer } from "./gl.js";
 
 const CLICK_SLOP = 4; // pixels a press may move and still be a click
+/** Colours of tagged lines by tag id (matplotlib's Dark2, as the pictures' color=region). */
+export const TAG_COLORS = ["#1b9e77", "#d95f02", "#7570b3", "#e7298a", "#66a61e", "#e6ab02", "#a6761d", "#666666"];
 
 function niceStep(span, target) {
   const raw = span / target;
@@ -170,6 +172,22 @@ export class MeshView extends EventTarget {
     ctx.closePath();
   }
 
+  /** Tagged lines, one colour per tag (TAG_COLORS, as the legend's). */
+  _drawLines(ctx) {
+    const { xy } = this.mesh, lines = this.mesh.lines, tag = this.mesh.lineTag;
+    ctx.lineWidth = 2.5;
+    for (let i = 0; i < tag.length; i++) {
+      const a = lines[2 * i], b = lines[2 * i + 1];
+      const [ax, ay] = this.toScreen(xy[2 * a], xy[2 * a + 1]);
+      const [bx, by] = this.toScreen(xy[2 * b], xy[2 * b + 1]);
+      ctx.beginPath();
+      ctx.moveTo(ax, ay);
+      ctx.lineTo(bx, by);
+      ctx.strokeStyle = TAG_COLORS[(tag[i] - 1) % TAG_COLORS.length];
+      ctx.stroke();
+    }
+  }
+
   _drawOverlay() {
     const ctx = this.octx;
     ctx.setTransform(this.dpr, 0, 0, this.dpr, 0, 0);
@@ -184,6 +202,7 @@ export class MeshView extends EventTarget {
       ctx.lineWidth = 1.5;
       ctx.stroke();
     }
+    if (this.mesh && this.mesh.lines) this._drawLines(ctx);
     if (this.mesh && this.showWorst) this._drawWorst(ctx);
     if (this.mesh && this.hover >= 0) {
       this._triangle(ctx, this.hover);

@@ -1,0 +1,292 @@
+"""Subdomains: polygons that share edges (or parts of edges) meshed as one conforming mesh, each
+with its own size, each triangle knowing its polygon.
+
+1. Every polygon is validated alone; overlapping polygons are an :class:`InvalidBoundary` at a
+   point of the overlap.
+2. Rings are noded: a vertex of one polygon lying on another's edge becomes a vertex of both.
+3. Each shared segment is split once, in one direction, to the smaller of its two polygons'
+   size fields (``ceil`` of the integral of ``ds / h``, so the mesher adds no point to a piece),
+   and the split points are inserted into both rings.
+4. Each polygon is meshed alone (its size: its own ``h``; a neighbour's smaller ``h`` grades in
+   from their common boundary as a refinement), and the meshes are merged on their identical
+   shared nodes.
+5. Swapping never flips an interface edge and smoothing never moves an interface node
+   (:class:`PinnedMesh`), so the regions keep their polygons' shapes.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from functools import cached_property
+
+import numpy as np
+import shapely
+from numpy.typing import NDArray
+
+from .boundary import PartInput, PolygonPart, Region, make_region
+from .errors import InvalidBoundary, MeshingError
+from .mesh import Mesh, validate_mesh
+from .params import PipelineParams, SizingParams
+from .pipeline import assess_mesh, mesh_region
+from .refinement import Refinement
+from .result import Result
+from .sizing import SizeField, build_size_field
+from .smoothing import smooth_points
+from .tags import interface_edges
+
+__all__ = ["PinnedMesh", "Subdomains", "improve_held", "mesh_subdomains", "split_segment"]
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+BoolArray = NDArray[np.bool_]
+
+#: Pieces of boundary closer than this fraction of the extent coincide.
+_TOL = 1e-9
+
+
+@dataclass(frozen=True)
+class PinnedMesh(Mesh):
+    """A mesh whose ``pinned`` nodes count as boundary nodes, so that no smoother moves them."""
+
+    pinned: BoolArray = field(default_factory=lambda: np.zeros(0, dtype=bool), repr=False)
+
+    @cached_property
+    def boundary_nodes(self) -> BoolArray:
+        mask: BoolArray = Mesh.boundary_nodes.func(self)  # type: ignore[attr-defined]
+        return mask | self.pinned if len(self.pinned) else mask
+
+
+@dataclass(frozen=True)
+class Subdomains:
+    """What :func:`mesh_subdomains` returns."""
+
+    result: Result  #: the pipeline's stages, as :func:`engine.mesh_then_smooth` returns them
+    region: Region  #: the noded polygons (a region whose parts touch: for engine.tags)
+    triangle_region: IntArray  #: (m,) 1-based polygon of each final triangle
+
+
+def _check_overlaps(polys: list[shapely.Polygon], tol: float) -> None:
+    tree = shapely.STRtree(polys)
+    left, right = tree.query(polys, predicate="intersects")
+    for i, j in zip(left.tolist(), right.tolist(), strict=True):
+        if i < j:
+            common = polys[i].intersection(polys[j])
+            if common.area > tol * tol:
+                p = common.representative_point()
+                raise InvalidBoundary(
+                    f"polygons {i} and {j} overlap near ({p.x:.6g}, {p.y:.6g}); "
+                    "subdomains may share edges but not area",
+                    part=j,
+                    location=(p.x, p.y),
+                )
+
+
+def _insert(ring: FloatArray, extra: FloatArray, tol: float) -> FloatArray:
+    """``ring`` with the points of ``extra`` that lie inside its segments inserted in order."""
+    a, b = ring, np.roll(ring, -1, axis=0)
+    segs = shapely.linestrings(np.stack([a, b], axis=1))
+    si, pi = shapely.STRtree(segs).query(shapely.points(extra), "dwithin", tol)
+    d = b[pi] - a[pi]
+    t = ((extra[si] - a[pi]) * d).sum(axis=1) / (d * d).sum(axis=1)
+    inner = (t > 1e-12) & (t < 1 - 1e-12)
+    si, pi, t = si[inner], pi[inner], t[inner]
+    out: list[FloatArray] = []
+    for k in range(len(ring)):
+        mine = pi == k
+        out.append(ring[k : k + 1])
+        if mine.any():
+            order = np.argsort(t[mine])
+            out.append(extra[si[mine][order]])
+    return np.concatenate(out)
+
+
+def split_segment(a: FloatArray, b: FloatArray, fields: Sequence[SizeField]) -> FloatArray:
+    """Points splitting ``a -> b`` into ``ceil(integral of ds / h)`` equal pieces of that
+    integral, ``h`` the smaller of ``fields``."""
+    length = float(np.hypot(*(b - a)))
+    m = 64
+    for _ in range(2):  # sample, then resample at a quarter of the smallest size found
+        t = np.linspace(0.0, 1.0, m)
+        xy = a + t[:, None] * (b - a)
+        h = np.min([f(xy) for f in fields], axis=0)
+        m = int(min(max(64, math.ceil(4 * length / h.min())), 4_000_000))
+    inv = 1.0 / h
+    cum = np.concatenate([[0.0], np.cumsum(0.5 * (inv[1:] + inv[:-1]) * np.diff(t) * length)])
+    n = max(math.ceil(cum[-1] - 1e-9), 1)
+    ts = np.interp(cum[-1] * np.arange(1, n) / n, cum, t)
+    return a + ts[:, None] * (b - a)
+
+
+def _key(a: FloatArray, b: FloatArray) -> tuple[float, float, float, float]:
+    return (float(a[0]), float(a[1]), float(b[0]), float(b[1]))
+
+
+def _split_shared(
+    parts: list[PolygonPart], fields: list[SizeField], tol: float
+) -> list[PolygonPart]:
+    """Parts with every shared segment split once, identically in both."""
+    boundaries = [p.to_shapely().boundary for p in parts]
+    done: dict[tuple[float, float, float, float], FloatArray] = {}
+    out = []
+    for i, part in enumerate(parts):
+        rings = []
+        for ring in part.rings:
+            pieces = []
+            for k in range(len(ring)):
+                a, b = ring[k], ring[(k + 1) % len(ring)]
+                pieces.append(a[None])
+                mid = shapely.Point((a + b) / 2)
+                other = [
+                    j for j in range(len(parts)) if j != i and boundaries[j].distance(mid) < tol
+                ]
+                if not other:
+                    continue
+                j = other[0]
+                if _key(b, a) in done:  # the neighbour split it the other way
+                    pieces.append(done[_key(b, a)][::-1])
+                    continue
+                pts = split_segment(a, b, [fields[i], fields[j]])
+                done[_key(a, b)] = pts
+                pieces.append(pts)
+            rings.append(np.concatenate(pieces))
+        out.append(PolygonPart(rings[0], tuple(rings[1:])))
+    return out
+
+
+def _sizing(
+    params: SizingParams, sizes: Sequence[float | None], parts: list[PolygonPart], i: int
+) -> SizingParams:
+    """Part ``i``'s sizing: its own size; smaller neighbours grade in from their boundaries."""
+    own = sizes[i] or params.size
+    near = tuple(
+        Refinement(shapely.geometry.mapping(parts[j].to_shapely().boundary), h)
+        for j, h in enumerate(sizes)
+        if j != i and h is not None and h < own
+    )
+    return replace(params, size=own, refinements=params.refinements + near)
+
+
+def _merge(meshes: list[Mesh]) -> tuple[Mesh, IntArray]:
+    """One mesh of ``meshes``, identical points merged, and the 1-based part of each triangle."""
+    pts = np.concatenate([m.points for m in meshes])
+    offsets = np.cumsum([0] + [m.n_points for m in meshes])
+    tris = np.concatenate([m.triangles + o for m, o in zip(meshes, offsets, strict=False)])
+    unique, inverse = np.unique(pts, axis=0, return_inverse=True)
+    region = np.concatenate([np.full(m.n_triangles, i + 1) for i, m in enumerate(meshes)])
+    return Mesh(unique, inverse.ravel()[tris]), region.astype(np.int64)
+
+
+def mesh_subdomains(
+    parts: Sequence[PartInput],
+    params: PipelineParams,
+    sizes: Sequence[float | None] = (),
+    rng: np.random.Generator | None = None,
+) -> Subdomains:
+    """Mesh polygons that may share edges as one conforming mesh, then swap and smooth it with
+    interface edges and nodes held; ``sizes[i]`` is polygon ``i``'s size (``None``: the job's).
+
+    >>> left = ([[0, 0], [1, 0], [1, 1], [0, 1]], [])
+    >>> right = ([[1, 0], [2, 0], [2, 1], [1, 1], [1, 0.5]], [])
+    >>> from engine.params import SmoothingParams
+    >>> params = PipelineParams(SizingParams(0.25), smoothing=SmoothingParams("none"))
+    >>> sub = mesh_subdomains([left, right], params, sizes=[None, 0.1])
+    >>> sorted(set(sub.triangle_region.tolist())), sub.result.smoothed.summary["inverted"]
+    ([1, 2], 0)
+    """
+    rng = rng if rng is not None else np.random.default_rng(0)
+    regions = []
+    for i, part in enumerate(parts):
+        try:
+            regions.append(make_region([part]))
+        except InvalidBoundary as exc:
+            raise InvalidBoundary(
+                f"polygon {i}: {exc}",
+                part=i,
+                ring=exc.ring,
+                vertex=exc.vertex,
+                location=exc.location,
+            ) from None
+    own = [r.parts[0] for r in regions]
+    x0 = min(r.bounds[0] for r in regions)
+    x1 = max(r.bounds[2] for r in regions)
+    y0 = min(r.bounds[1] for r in regions)
+    y1 = max(r.bounds[3] for r in regions)
+    tol = _TOL * max(x1 - x0, y1 - y0)
+    _check_overlaps([p.to_shapely() for p in own], tol)
+    corners = np.unique(np.concatenate([r for p in own for r in p.rings]), axis=0)
+    noded = [
+        PolygonPart(
+            _insert(p.outer, corners, tol), tuple(_insert(h, corners, tol) for h in p.holes)
+        )
+        for p in own
+    ]
+    sizes = list(sizes) + [None] * (len(parts) - len(sizes))
+    sizing = [_sizing(params.sizing, sizes, noded, i) for i in range(len(noded))]
+    fields = [build_size_field(Region((p,)), s) for p, s in zip(noded, sizing, strict=True)]
+    split = _split_shared(noded, fields, tol)
+    meshes = [
+        mesh_region(Region((p,)), s, params.relax, max_triangles=params.max_triangles)[0]
+        for p, s in zip(split, sizing, strict=True)
+    ]
+    mesh, region = _merge(meshes)
+    try:
+        mesh = validate_mesh(mesh.points, mesh.triangles)
+    except ValueError as exc:
+        raise MeshingError(f"the subdomain meshes do not conform: {exc}") from None
+    outline = shapely.union_all([p.to_shapely() for p in own])
+    if (
+        abs(
+            float(
+                np.hypot(
+                    *(
+                        mesh.points[mesh.boundary_edges[:, 1]]
+                        - mesh.points[mesh.boundary_edges[:, 0]]
+                    ).T
+                ).sum()
+            )
+            - outline.length
+        )
+        > 1e-6 * outline.length
+    ):
+        raise MeshingError("the subdomain meshes do not conform along a shared edge")
+    # No flip crosses an interface, so triangles keep their regions through swapping.
+    locked, _ = interface_edges(mesh.triangles, region)
+    pinned = np.zeros(mesh.n_points, dtype=bool)
+    pinned[locked.ravel()] = True
+    return Subdomains(
+        result=improve_held(mesh, locked, pinned, params, rng),
+        region=Region(tuple(split)),
+        triangle_region=region,
+    )
+
+
+def improve_held(
+    mesh: Mesh,
+    locked: IntArray,
+    pinned: BoolArray,
+    params: PipelineParams,
+    rng: np.random.Generator,
+) -> Result:
+    """Swap with the ``locked`` edges held and smooth with the ``pinned`` nodes held (as
+    boundary nodes); the stages as :func:`engine.mesh_then_smooth` reports them."""
+    from .swap import swap_diagonals
+
+    first = assess_mesh(mesh, params.smoothing)
+    held = PinnedMesh(mesh.points, mesh.triangles, pinned)
+    swapped = (
+        swap_diagonals(held, locked, relax=params.smoothing.method != "none")
+        if params.swap
+        else held
+    )
+    second = assess_mesh(swapped, params.smoothing)
+    outcome = smooth_points(
+        PinnedMesh(swapped.points, swapped.triangles, pinned), params.smoothing, rng,
+        lambda stage, f: None, lambda: False,
+    )  # fmt: skip
+    final = assess_mesh(swapped.with_points(outcome.points), params.smoothing)
+    return Result(
+        initial=first, swapped=second, smoothed=final, history=outcome.history,
+        parameters=params.to_dict(), timings={},
+    )  # fmt: skip
