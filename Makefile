@@ -32,7 +32,14 @@ $(VENV)/.bench-installed: $(STAMP)
 	$(BIN)/python -m pip install --quiet -e '.[bench]'
 	@touch $@
 
-run: $(STAMP)
+# The numba kernels are compiled once, before the first start, into the cache in __pycache__
+# (a few minutes on a new machine; the service's workers then load them in seconds).
+$(VENV)/.warm: $(STAMP) $(wildcard engine/*.py engine/front/*.py)
+	@echo "compiling the engine's kernels (first use only)..."
+	$(BIN)/python -c "import engine; print(len(engine.warmup()), 'engine kernels compiled')"
+	@touch $@
+
+run: $(VENV)/.warm
 	$(BIN)/evomesh serve
 
 system-deps:
