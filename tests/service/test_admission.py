@@ -200,5 +200,5 @@ def test_the_region_in_a_payload_survives_a_round_trip() -> None:
     stored = json.loads(json.dumps(prepared.inputs))
     from service.geojson import build_region
 
-    region, _ = build_region(stored["parts"])
+    region = build_region(stored["parts"])
     assert np.isclose(region.area, 1.0)
