@@ -248,8 +248,9 @@ def _parse(inputs: MeshInputs, where: Where, densify: float | None = None) -> Pa
         raise Problem(422, exc.message, kind="invalid-input", pointer=crs_at) from None
     except GeoError as exc:  # RegionTooLarge and the like: the region as a whole
         raise Problem(422, exc.message, kind="invalid-boundary", pointer=at) from None
-    except (TypeError, ValueError, ArithmeticError) as exc:
-        # Input the parser did not foresee: still the input's fault, never a server error.
+    except (TypeError, ValueError, ArithmeticError, RuntimeWarning) as exc:
+        # Input the parser did not foresee (numbers near the float limit overflow, a warning
+        # when warnings are errors): still the input's fault, never a server error.
         raise Problem(
             422, f"the boundary could not be read: {exc}", kind="invalid-boundary", pointer=at
         ) from exc
