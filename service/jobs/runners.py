@@ -20,6 +20,7 @@ from engine import EngineError, PipelineParams, SizingParams, SmoothingParams
 from engine.pipeline import STAGE_WEIGHTS, job_progress
 
 from ..document import cell_data, mesh_from_document, result_document
+from ..geo import project_rings
 from ..geojson import build_region
 from .backend import ProgressCallback, TaskError
 
@@ -75,8 +76,14 @@ def mesh(
     """The ``mesh`` process: boundary -> mesh -> swap -> smooth."""
     started = time.perf_counter()
     try:
-        # The rings are in the meshing plane already (admission projected them).
-        region = build_region(payload["parts"])
+        # The rings are in the meshing plane already (admission projected them), except in
+        # jobs stored before the crs input: lon/lat rings under coordinates "wgs84".
+        parts, crs = payload["parts"], payload.get("crs")
+        if crs is None and payload.get("coordinates") == "wgs84":
+            projection = project_rings(parts, "OGC:CRS84")
+            parts = [(o.tolist(), [h.tolist() for h in hs]) for o, hs in projection.parts]
+            crs = projection.describe()
+        region = build_region(parts)
         smoothing, seed = smoothing_params(payload["smoothing"])
         params = PipelineParams(
             SizingParams(
@@ -102,7 +109,7 @@ def mesh(
         if isinstance(exc, engine.Cancelled):
             raise
         raise TaskError(str(exc)) from exc
-    doc = result_document(result, payload.get("crs"))
+    doc = result_document(result, crs)
     doc["summary"]["parameters"]["seed"] = seed
     return pack(doc), _figures(result, started)
 

@@ -80,3 +80,15 @@ def test_selection_options_reach_the_engine_and_are_described() -> None:
     assert fields["selection"]["enum"] == ["poor", "all"]
     assert fields["poor_quality"]["default"] == 0.9
     assert fields["patience"]["default"] == 15
+
+
+def test_a_lonlat_job_stored_before_the_crs_input_still_comes_back_in_lonlat() -> None:
+    ring = [[7.0, 46.0], [7.01, 46.0], [7.01, 46.01], [7.0, 46.01]]
+    payload = _stored({"boundary": SQUARE, "size": 0.5, "smoothing": {"method": "none"}})
+    del payload["crs"]
+    payload.update(parts=[(ring, [])], coordinates="wgs84", size=300.0)
+    doc, _ = _run("mesh", payload)
+    assert doc["crs"]["mesh"] == "EPSG:32632"
+    lon = [p[0] for p in doc["points"]]
+    assert min(lon) >= 7.0 - 1e-7  # edges straight in the plane bow by ~1e-8 degrees
+    assert max(lon) <= 7.01 + 1e-7
