@@ -385,7 +385,7 @@ def _mesh(mesh: Any) -> dict[str, Any]:
     else:
         doc = _load(mesh)
     # Only the mesh: the rest of a result document (cell data, summary) is not an input.
-    keys = ("points", "triangles", "points_local")
+    keys = ("points", "triangles", "points_local", "projected")
     return {k: doc[k] for k in keys if k in doc}
 
 

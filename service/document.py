@@ -2,17 +2,22 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import asdict
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from pyproj import Transformer
 
 from engine import METRICS, Mesh, MeshTags, Result, Snapshot, validate_mesh
 from engine.errors import InvalidMesh
 
-__all__ = ["add_tags", "cell_data", "mesh_from_document", "result_document"]
+from .geo import normalize_longitudes, resolve_crs
+
+__all__ = ["add_tags", "cell_data", "mesh_from_document", "plane_to_input", "result_document"]
+
+PointMap = Callable[[NDArray[np.float64]], NDArray[np.float64]]
 
 
 def cell_data(snap: Snapshot) -> dict[str, list[float]]:
@@ -20,26 +25,49 @@ def cell_data(snap: Snapshot) -> dict[str, list[float]]:
     return {name: snap.quality[name].tolist() for name in METRICS}
 
 
+def plane_to_input(crs: Mapping[str, Any] | None) -> PointMap | None:
+    """Mesh-plane points -> the input CRS, from a document's ``crs`` (rebuilt from the CRS
+    names, as a worker gets them); ``None`` when the plane is the input's own coordinates.
+
+    >>> back = plane_to_input({"input": "EPSG:4326", "mesh": "EPSG:32633", "geographic": True})
+    >>> np.round(back(np.array([[500_000.0, 0.0]])), 6).tolist()
+    [[15.0, 0.0]]
+    """
+    if not crs or crs.get("input") is None or crs.get("input") == crs.get("mesh"):
+        return None
+    # always_xy: lon/lat in that order whatever the CRS's axis order (GeoJSON's convention).
+    back = Transformer.from_crs(resolve_crs(crs["mesh"]), resolve_crs(crs["input"]), always_xy=True)
+    geographic = bool(crs.get("geographic"))
+
+    def to_input(xy: NDArray[np.float64]) -> NDArray[np.float64]:
+        x, y = back.transform(xy[:, 0], xy[:, 1], errcheck=True)
+        out = np.column_stack([x, y])
+        return normalize_longitudes(out) if geographic else out
+
+    return to_input
+
+
 def result_document(
-    result: Result,
-    to_lonlat: Callable[[NDArray[np.float64]], NDArray[np.float64]] | None = None,
-    tags: MeshTags | None = None,
+    result: Result, crs: Mapping[str, Any] | None = None, tags: MeshTags | None = None
 ) -> dict[str, Any]:
     """The mesh document of ``result``.
 
     ``points``/``triangles``/``point_data``/``cell_data`` describe the final mesh; ``initial``
     holds the mesh as first meshed (before swapping and smoothing) with its own cell data, so
     clients can compare; ``summary`` holds each stage's figures, parameters, timings and the
-    smoothing history. With ``tags`` (:func:`engine.tags.tag_mesh` of the final mesh) it holds
-    the tagged ``lines``, ``line_data.tag``, ``tags``, ``regions``, ``cell_data.region`` and
-    ``point_data.fixed`` (:func:`add_tags`). With ``to_lonlat`` (a region given in wgs84)
-    points are lon/lat and ``points_local`` keeps the metric coordinates the figures refer to.
+    smoothing history. With ``crs`` (what :meth:`service.geojson.ParsedRegion.crs` gives) the
+    document carries it, and when the input was lon/lat ``points`` are lon/lat and
+    ``projected`` keeps the mesh-plane coordinates (metres) the figures refer to. With ``tags``
+    (:func:`engine.tags.tag_mesh` of the final mesh) it holds the tagged ``lines``,
+    ``line_data.tag``, ``tags``, ``regions``, ``cell_data.region`` and ``point_data.fixed``
+    (:func:`add_tags`).
     """
     final, first = result.smoothed, result.initial
+    to_input = plane_to_input(crs)
 
     def pts(snap: Snapshot) -> list[list[float]]:
         xy = snap.mesh.points
-        return (to_lonlat(xy) if to_lonlat is not None else xy).tolist()
+        return (to_input(xy) if to_input is not None else xy).tolist()
 
     doc: dict[str, Any] = {
         "points": pts(final),
@@ -66,9 +94,13 @@ def result_document(
     }
     if tags is not None:
         add_tags(doc, tags)
-    if to_lonlat is not None:
-        doc["points_local"] = final.mesh.points.tolist()
-        doc["crs"] = "wgs84"
+    if crs:
+        doc["crs"] = dict(crs)
+    if to_input is not None:
+        doc["projected"] = {
+            "points": final.mesh.points.tolist(),
+            "initial_points": first.mesh.points.tolist(),
+        }
     return doc
 
 
@@ -91,5 +123,9 @@ def mesh_from_document(obj: Any) -> Mesh:
     """
     if not isinstance(obj, dict) or "points" not in obj or "triangles" not in obj:
         raise InvalidMesh('a mesh needs "points" and "triangles"')
-    pts = obj["points_local"] if "points_local" in obj else obj["points"]
+    projected = obj.get("projected")
+    if isinstance(projected, dict) and "points" in projected:
+        pts = projected["points"]  # the plane the mesh was made in (metres for lon/lat)
+    else:  # documents before version 1.1 named it points_local
+        pts = obj["points_local"] if "points_local" in obj else obj["points"]
     return validate_mesh(pts, obj["triangles"])

@@ -3,18 +3,20 @@
 :func:`parse_region` accepts a Polygon, MultiPolygon, Feature, FeatureCollection, a bare
 coordinate list of rings, or ``{"outer": [[x, y], ...], "holes": [[[x, y], ...], ...]}``; it
 returns the validated region and a function that turns an engine error's (part, ring, vertex)
-into a JSON pointer into the input, so errors say exactly where the problem is.
+into a JSON pointer into the input, so errors say exactly where the problem is. Given a ``crs``
+the rings are projected to the meshing plane with :func:`service.geo.project_rings` (lon/lat
+input is meshed in metres in a local projection).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-import numpy as np
-
 from engine import InvalidBoundary, Region, make_region
+
+from .geo import InvalidCoordinates, Projection, legacy_crs, project_rings
 
 __all__ = [
     "BoundaryInputError",
@@ -22,10 +24,8 @@ __all__ = [
     "Parts",
     "build_region",
     "parse_region",
-    "project_wgs84",
+    "region_crs",
 ]
-
-_EARTH_RADIUS_M = 6_371_008.8
 
 
 class BoundaryInputError(ValueError):
@@ -42,14 +42,20 @@ class ParsedRegion:
     """A validated region, with what is needed to point back into the input."""
 
     region: Region
-    parts: Parts  #: the rings as read (lon/lat for wgs84), for :func:`build_region`
+    parts: Parts  #: the rings to mesh (in the meshing plane), for :func:`build_region`
     ring_pointers: tuple[tuple[str, ...], ...]  #: per part, per ring: JSON pointer of the ring
     properties: dict[str, Any]  #: the Feature's properties (first Feature's for collections)
-    to_lonlat: Callable[[np.ndarray], np.ndarray] | None = None  #: inverse of the wgs84 projection
+    projection: Projection | None = None  #: the input CRS and the plane (``None``: planar)
 
     def pointer(self, exc: InvalidBoundary) -> str:
         """JSON pointer (relative to the boundary input) of an engine error's location."""
         return locate(self.ring_pointers, exc)
+
+    def crs(self) -> dict[str, Any] | None:
+        """What a job stores and a result document carries about the CRS (``None``: planar):
+        :meth:`service.geo.Projection.describe`, whose ``input`` and ``mesh`` names rebuild the
+        way back (:func:`service.document.plane_to_input`)."""
+        return None if self.projection is None else self.projection.describe()
 
 
 def locate(ring_pointers: Sequence[Sequence[str]], exc: InvalidBoundary) -> str:
@@ -165,87 +171,68 @@ def _parts(obj: Any, ptr: str) -> tuple[list[tuple[_Part, tuple[str, ...]]], dic
     )
 
 
-def project_wgs84(
-    parts: list[_Part],
-) -> tuple[list[_Part], Callable[[np.ndarray], np.ndarray]]:
-    """Project lon/lat rings to a local metric frame (metres) centred on the region.
+def region_crs(obj: Any, crs: str | None, coordinates: str = "planar") -> str | None:
+    """The CRS of a boundary input: ``crs`` when given, else the GeoJSON's legacy ``crs``
+    member, else lon/lat for ``coordinates="wgs84"`` (the older switch), else ``None`` (planar).
 
-    Uses the equirectangular tangent plane at the region's centre, good to well under 0.1% for
-    regions a few tens of kilometres across. Returns the projected parts and the inverse map.
+    >>> region_crs({"type": "Polygon", "coordinates": [], "crs": {"type": "name",
+    ...     "properties": {"name": "EPSG:32633"}}}, None)
+    'EPSG:32633'
+    >>> region_crs({}, None, "wgs84")
+    'OGC:CRS84'
     """
-    pts = np.concatenate(
-        [np.asarray(r, dtype=np.float64)[:, :2] for o, hs in parts for r in [o, *hs]]
-    )
-    lon0, lat0 = float(pts[:, 0].mean()), float(pts[:, 1].mean())
-    k = np.cos(np.radians(lat0))
-
-    def fwd(a: Any) -> np.ndarray:
-        xy = np.asarray(a, dtype=np.float64)[:, :2]
-        return np.stack(
-            [
-                np.radians(xy[:, 0] - lon0) * _EARTH_RADIUS_M * k,
-                np.radians(xy[:, 1] - lat0) * _EARTH_RADIUS_M,
-            ],
-            axis=1,
-        )
-
-    def inverse(xy: np.ndarray) -> np.ndarray:
-        return np.stack(
-            [
-                lon0 + np.degrees(xy[:, 0] / (_EARTH_RADIUS_M * k)),
-                lat0 + np.degrees(xy[:, 1] / _EARTH_RADIUS_M),
-            ],
-            axis=1,
-        )
-
-    return [(fwd(o), [fwd(h) for h in hs]) for o, hs in parts], inverse
+    if crs is not None:
+        return crs
+    legacy = legacy_crs(obj) if isinstance(obj, Mapping) else None
+    if legacy is not None:
+        return legacy
+    return "OGC:CRS84" if coordinates == "wgs84" else None
 
 
-def parse_region(obj: Any, *, pointer: str = "", wgs84: bool = False) -> ParsedRegion:
-    """Parse and validate a region.
+def parse_region(
+    obj: Any, *, pointer: str = "", crs: str | None = None, densify: float | None = None
+) -> ParsedRegion:
+    """Parse and validate a region, projected to its meshing plane when it has a ``crs``.
 
-    Raises :class:`BoundaryInputError` for malformed input and :class:`engine.InvalidBoundary`
-    (with ``exc.pointer`` set) for a region that cannot be meshed. With ``wgs84`` the input is
-    lon/lat and is projected to a local metric frame; ``to_lonlat`` maps mesh points back.
+    Raises :class:`BoundaryInputError` for malformed input (a position outside the CRS's range
+    included), :class:`engine.InvalidBoundary` (with ``exc.pointer`` set) for a region that
+    cannot be meshed and :class:`service.geo.GeoError` for an unknown CRS or a region too large
+    for one projection. ``densify`` (mesh-plane units) splits lon/lat edges to follow them.
 
     >>> p = parse_region({"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 0]]]})
     >>> p.region.area
     0.5
     >>> p.ring_pointers
     (('/coordinates/0',),)
+    >>> parse_region([[[14, 60], [15, 60], [15, 61]]], crs="EPSG:4326").crs()["mesh"]
+    'EPSG:32633'
     """
     found, props = _parts(obj, pointer)
     ring_pointers = tuple(ptrs for _, ptrs in found)
     parts: Parts = [(_floats(outer), [_floats(h) for h in holes]) for (outer, holes), _ in found]
-    if wgs84:
-        for ptrs, (outer, holes) in zip(ring_pointers, parts, strict=True):
-            for ptr, ring in zip(ptrs, [outer, *holes], strict=True):
-                xy = np.asarray(ring, dtype=np.float64).reshape(-1, 2)
-                bad = np.flatnonzero((np.abs(xy[:, 0]) > 180) | (np.abs(xy[:, 1]) > 90))
-                if bad.size:
-                    raise BoundaryInputError(
-                        "longitude must be within [-180, 180] and latitude within [-90, 90]",
-                        f"{ptr}/{bad[0]}",
-                    )
+    projection = None
+    if crs is not None:
+        try:
+            projection = project_rings(parts, crs, densify=densify)
+        except InvalidCoordinates as exc:
+            at = ring_pointers[exc.part][exc.ring]
+            raise BoundaryInputError(exc.message, f"{at}/{exc.vertex}") from None
+        parts = [(o.tolist(), [h.tolist() for h in hs]) for o, hs in projection.parts]
     try:
-        region, to_lonlat = build_region(parts, wgs84=wgs84)
+        region = build_region(parts)
     except InvalidBoundary as exc:
+        known = exc.part is not None and exc.ring is not None and exc.vertex is not None
+        if projection is not None and known:  # densified rings: back to the input's numbering
+            exc.vertex = projection.input_vertex(exc.part, exc.ring, exc.vertex)  # type: ignore[arg-type]
         exc.pointer = locate(ring_pointers, exc) or pointer  # type: ignore[attr-defined]
         raise
-    return ParsedRegion(region, parts, ring_pointers, props, to_lonlat)
+    return ParsedRegion(region, parts, ring_pointers, props, projection)
 
 
-def build_region(
-    parts: Parts, *, wgs84: bool = False
-) -> tuple[Region, Callable[[np.ndarray], np.ndarray] | None]:
-    """The region of ``parts`` (projected first with ``wgs84``) and the inverse projection.
+def build_region(parts: Parts) -> Region:
+    """The region of ``parts`` (rings in the meshing plane, as a job stores them).
 
-    >>> region, _ = build_region([([[0.0, 0.0], [2.0, 0.0], [0.0, 2.0]], [])])
-    >>> region.area
+    >>> build_region([([[0.0, 0.0], [2.0, 0.0], [0.0, 2.0]], [])]).area
     2.0
     """
-    rings: list[_Part] = list(parts)
-    to_lonlat = None
-    if wgs84:
-        rings, to_lonlat = project_wgs84(rings)
-    return make_region(rings), to_lonlat
+    return make_region(list(parts))

@@ -14,6 +14,7 @@ from pydantic import AfterValidator, BaseModel, ConfigDict, Field
 
 import engine
 from engine import SizingParams, SmoothingParams
+from engine.params import SELECTIONS
 
 __all__ = [
     "BOUNDARY_SCHEMA",
@@ -132,11 +133,24 @@ class SmoothingInput(BaseModel):
     generations: int = Field(_S.generations, ge=1, le=10_000, description="generations per node")
     crossover_rate: float = Field(_S.crossover_rate, ge=0, le=1)
     mutation_rate: float = Field(_S.mutation_rate, ge=0, le=1)
+    patience: int | None = Field(
+        _S.patience,
+        ge=1,
+        le=10_000,
+        description="stop a node's GA after this many generations without gain (null: never)",
+    )
     tolerance: float = Field(_S.tolerance, ge=0, description="stop when a sweep changes less")
     max_sweeps: int = Field(_S.max_sweeps, ge=1, le=10_000, description="most GA sweeps")
     iterations: int = Field(_S.iterations, ge=1, le=10_000, description="Laplacian sweeps")
     threshold: float | None = Field(
         _S.threshold, ge=0, le=1, description="evolve only nodes with fitness below this"
+    )
+    selection: Literal[SELECTIONS] = Field(  # type: ignore[valid-type]
+        _S.selection,
+        description="which nodes the GA evolves: poor (of poorly shaped triangles) or all",
+    )
+    poor_quality: float = Field(
+        _S.poor_quality, ge=0, le=1, description="shape quality below which a triangle is poor"
     )
     seed: int | None = Field(
         None,
@@ -155,11 +169,24 @@ class MeshInputs(BaseModel):
     model_config = _STRICT
 
     boundary: Any = Field(json_schema_extra=BOUNDARY_SCHEMA)
+    crs: str | None = Field(
+        None,
+        min_length=1,
+        max_length=20_000,
+        description=(
+            "coordinate reference system of the boundary: any CRS pyproj reads (EPSG:4326, "
+            "OGC:CRS84, EPSG:32633, a URN, WKT or PROJ string); default: the boundary's legacy "
+            "GeoJSON crs member, else planar. Lon/lat is meshed in metres in a local projection "
+            "(sizes in metres) and results come back in this CRS"
+        ),
+    )
     coordinates: Literal["planar", "wgs84"] = Field(
-        "planar", description="wgs84: lon/lat, projected to a local metric frame (metres)"
+        "planar", description='wgs84: lon/lat (an alias of crs "OGC:CRS84")'
     )
     size: float | None = Field(
-        None, gt=0, description="target edge length; default: the Feature's `h` property"
+        None,
+        gt=0,
+        description="target edge length (metres for lon/lat); default: the Feature's `h` property",
     )
     growth: float = Field(_SIZING.growth, gt=1, le=100, description="largest neighbour size ratio")
     size_min: float | None = Field(None, gt=0, description="lower clamp of the local size")
@@ -171,6 +198,14 @@ class MeshInputs(BaseModel):
 Index = Annotated[int, Field(ge=0, le=2**31 - 1)]
 
 
+class ProjectedPoints(BaseModel):
+    """A result document's mesh-plane coordinates (metres, when its points are lon/lat)."""
+
+    model_config = ConfigDict(extra="ignore", allow_inf_nan=False, strict=True)
+
+    points: list[Annotated[list[float], Field(min_length=2, max_length=2)]] = Field(min_length=3)
+
+
 class MeshDocumentInput(BaseModel):
     """A mesh: ``points`` and counter-clockwise, 0-based ``triangles`` (a mesh document)."""
 
@@ -180,6 +215,7 @@ class MeshDocumentInput(BaseModel):
     points: list[Annotated[list[float], Field(min_length=2, max_length=2)]] = Field(min_length=3)
     triangles: list[Annotated[list[Index], Field(min_length=3, max_length=3)]] = Field(min_length=1)
     points_local: list[Annotated[list[float], Field(min_length=2, max_length=2)]] | None = None
+    projected: ProjectedPoints | None = None
 
 
 class SmoothInputs(BaseModel):

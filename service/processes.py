@@ -19,7 +19,8 @@ from pydantic import BaseModel
 import engine
 
 from .document import mesh_from_document
-from .geojson import BoundaryInputError, ParsedRegion, parse_region
+from .geo import GeoError, UnknownCRS
+from .geojson import BoundaryInputError, ParsedRegion, parse_region, region_crs
 from .inputs import (
     ExecuteRequest,
     MeshDocumentInput,
@@ -233,20 +234,34 @@ def _sizing(
         raise Problem(422, str(exc), kind="invalid-input", pointer=where("size")) from None
 
 
+def _parse(inputs: MeshInputs, where: Where, densify: float | None = None) -> ParsedRegion:
+    """The region in its meshing plane; the geodata layer's errors as 422s pointing at the input
+    they come from (an unknown CRS at ``crs``, or at the boundary's legacy ``crs`` member)."""
+    at = where("boundary")
+    crs_at = where("crs") if inputs.crs is not None else f"{at}/crs"
+    try:
+        crs = region_crs(inputs.boundary, inputs.crs, inputs.coordinates)
+        return parse_region(inputs.boundary, pointer=at, crs=crs, densify=densify)
+    except (BoundaryInputError, engine.InvalidBoundary):
+        raise
+    except UnknownCRS as exc:
+        raise Problem(422, exc.message, kind="invalid-input", pointer=crs_at) from None
+    except GeoError as exc:  # RegionTooLarge and the like: the region as a whole
+        raise Problem(422, exc.message, kind="invalid-boundary", pointer=at) from None
+    except (TypeError, ValueError, ArithmeticError, RuntimeWarning) as exc:
+        # Input the parser did not foresee (numbers near the float limit overflow, a warning
+        # when warnings are errors): still the input's fault, never a server error.
+        raise Problem(
+            422, f"the boundary could not be read: {exc}", kind="invalid-boundary", pointer=at
+        ) from exc
+
+
 def _prepare_mesh(inputs: MeshInputs, settings: Settings, where: Where) -> Prepared:
     rings, vertices = count_rings(inputs.boundary, settings.max_vertices)
     at = where("boundary")
     _limit(rings, settings.max_rings, "the number of rings", at)
     _limit(vertices, settings.max_vertices, "the number of boundary vertices", at)
-    try:
-        parsed = parse_region(inputs.boundary, pointer=at, wgs84=inputs.coordinates == "wgs84")
-    except (BoundaryInputError, engine.InvalidBoundary):
-        raise
-    except (TypeError, ValueError, ArithmeticError) as exc:
-        # Input the parser did not foresee: still the input's fault, never a server error.
-        raise Problem(
-            422, f"the boundary could not be read: {exc}", kind="invalid-boundary", pointer=at
-        ) from exc
+    parsed = _parse(inputs, where)
     size = inputs.size
     if size is None:
         h = parsed.properties.get("h")
@@ -264,11 +279,16 @@ def _prepare_mesh(inputs: MeshInputs, settings: Settings, where: Where) -> Prepa
     triangles = estimate_mesh(parsed.region, sizing)
     _limit(triangles, settings.max_triangles, "the estimated number of triangles", where("size"))
     _ga_work(smoothing, triangles, settings, where)
-    # What the job keeps and the worker gets: the rings as floats and the resolved parameters,
-    # never the client's JSON (whose foreign members may be anything).
+    if parsed.projection is not None and parsed.projection.geographic:
+        # Lon/lat edges are straight in lon/lat (RFC 7946): split them at the size so the
+        # meshed boundary follows them (sizes were checked first, so this stays small).
+        parsed = _parse(inputs, where, densify=sizing.size)
+    # What the job keeps and the worker gets: the rings as floats in the meshing plane, the CRS
+    # names that map the result back, and the resolved parameters, never the client's JSON
+    # (whose foreign members may be anything).
     resolved = {
         "parts": parsed.parts,
-        "coordinates": inputs.coordinates,
+        "crs": parsed.crs(),
         "size": sizing.size,
         "growth": sizing.growth,
         "size_min": sizing.size_min,
@@ -293,7 +313,7 @@ def _mesh_size(mesh: MeshDocumentInput, settings: Settings, where: Where) -> int
         if exc.triangle is not None:
             pointer += f"/triangles/{exc.triangle}"
         elif exc.point is not None:
-            pointer += f"/{'points_local' if mesh.points_local else 'points'}/{exc.point}"
+            pointer += f"/{_points_at(mesh)}/{exc.point}"
         raise Problem(422, exc.message, kind="invalid-mesh", pointer=pointer) from None
     except (TypeError, ValueError, ArithmeticError) as exc:
         raise Problem(
@@ -302,9 +322,18 @@ def _mesh_size(mesh: MeshDocumentInput, settings: Settings, where: Where) -> int
     return len(mesh.triangles)
 
 
+def _points_at(mesh: MeshDocumentInput) -> str:
+    """Where the points a job uses are (the mesh plane's when the document has them)."""
+    if mesh.projected is not None:
+        return "projected/points"
+    return "points_local" if mesh.points_local else "points"
+
+
 def _mesh_only(mesh: MeshDocumentInput) -> dict[str, Any]:
     """The parts of a mesh document a job uses (a whole result document may be given)."""
-    return mesh.model_dump(include={"points", "triangles", "points_local"}, exclude_none=True)
+    return mesh.model_dump(
+        include={"points", "triangles", "points_local", "projected"}, exclude_none=True
+    )
 
 
 def _prepare_smooth(inputs: SmoothInputs, settings: Settings, where: Where) -> Prepared:

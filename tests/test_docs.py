@@ -198,7 +198,8 @@ def test_every_process_result_validates_and_renders_in_every_format(
         assert not errors, (name, errors[:3])
         assert formats[name] == {200}, (name, formats[name])
     assert documents["mesh"]["summary"]["history"]  # the GA's sweeps are in the schema's scope
-    assert "points_local" in documents["mesh-wgs84"]
+    assert "points" in documents["mesh-wgs84"]["projected"]
+    assert documents["mesh-wgs84"]["crs"]["geographic"] is True
 
 
 @pytest.mark.parametrize(

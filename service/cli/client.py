@@ -15,7 +15,9 @@ from typing import Any
 
 from ..client import DEFAULT_URL, Client, Job, Status
 from ..formats import EXTENSIONS
+from ..inputs import SmoothingInput
 from .files import STDIO, output_format, say, write_output
+from .model_flags import GA_FLAGS, add_model_flags
 from .progress import is_terminal, make_progress, stage_label
 
 __all__ = ["connect", "connection_flags", "mesh_flags", "read_json", "register", "shared_inputs"]
@@ -42,6 +44,15 @@ def mesh_flags(p: argparse.ArgumentParser) -> None:
     g.add_argument("--no-swap", action="store_true", help="skip diagonal swapping")
     g.add_argument("--seed", type=int, help="random seed (default: the service picks one)")
     g.add_argument("--wgs84", action="store_true", help="coordinates are lon/lat")
+    g.add_argument(
+        "--crs", help="CRS of the region (EPSG:4326, EPSG:32633...); sizes in metres for lon/lat"
+    )
+    add_model_flags(
+        p.add_argument_group("smoothing (the service's defaults when left out)"),
+        SmoothingInput,
+        GA_FLAGS,
+        defaults=False,
+    )
     g.add_argument(
         "--input",
         dest="extra",
@@ -138,6 +149,11 @@ def shared_inputs(args: argparse.Namespace) -> dict[str, Any]:
         inputs["swap"] = False
     if args.wgs84:
         inputs["coordinates"] = "wgs84"
+    if args.crs:
+        inputs["crs"] = args.crs
+    for name in GA_FLAGS:  # generated flags: present only when given
+        if name in vars(args):
+            _set(inputs, f"smoothing.{name}", getattr(args, name))
     if args.method is not None:
         _set(inputs, "smoothing.method", args.method)
     if args.seed is not None:

@@ -15,8 +15,11 @@ from engine import EngineError, PipelineParams, SizingParams, SmoothingParams
 
 from ..document import cell_data, mesh_from_document, result_document
 from ..formats import EXTENSIONS, FORMATS, StoredResult
-from ..geojson import BoundaryInputError, parse_region
+from ..geo import read_region_file
+from ..geojson import BoundaryInputError, parse_region, region_crs
+from ..inputs import SmoothingInput
 from .files import output_format, read_mesh, say, write_output
+from .model_flags import GA_FLAGS, add_model_flags, model_values
 from .progress import StageBar
 
 #: Errors that are the user's, printed on one line with exit code 2.
@@ -33,13 +36,6 @@ def _positive(kind: type) -> Any:
     return check
 
 
-def _fraction(text: str) -> float:
-    value = float(text)
-    if not 0.0 <= value <= 1.0:
-        raise argparse.ArgumentTypeError(f"must be within [0, 1], got {text}")
-    return value
-
-
 def _add_smoothing_flags(p: argparse.ArgumentParser, method_flag: str) -> None:
     d = SmoothingParams()
     p.add_argument(
@@ -50,20 +46,7 @@ def _add_smoothing_flags(p: argparse.ArgumentParser, method_flag: str) -> None:
     )
     p.add_argument("--no-swap", action="store_true", help="skip diagonal swapping")
     _add_fitness_flags(p)
-    p.add_argument("--population", type=_positive(int), default=d.population)
-    p.add_argument("--generations", type=_positive(int), default=d.generations)
-    p.add_argument("--crossover-rate", type=_fraction, default=d.crossover_rate)
-    p.add_argument("--mutation-rate", type=_fraction, default=d.mutation_rate)
-    p.add_argument(
-        "--tolerance", type=float, default=d.tolerance, help="stop when a sweep changes less"
-    )
-    p.add_argument("--max-sweeps", type=_positive(int), default=d.max_sweeps)
-    p.add_argument(
-        "--threshold", type=float, default=d.threshold, help="evolve only nodes below this fitness"
-    )
-    p.add_argument(
-        "--iterations", type=_positive(int), default=d.iterations, help="Laplacian sweeps"
-    )
+    add_model_flags(p.add_argument_group("smoothing"), SmoothingInput, GA_FLAGS)
     p.add_argument("--seed", type=int, default=0, help="random seed of the GA (default 0)")
 
 
@@ -74,8 +57,7 @@ def _add_fitness_flags(p: argparse.ArgumentParser) -> None:
         default=d.fitness,
         help=f"{' | '.join(engine.FITNESS)} (default {d.fitness})",
     )
-    p.add_argument("--alpha", type=float, default=d.alpha, help="weight of the angle term")
-    p.add_argument("--beta", type=float, default=d.beta, help="weight of the aspect term")
+    add_model_flags(p, SmoothingInput, ["alpha", "beta"])
 
 
 def _add_mesh_input(p: argparse.ArgumentParser) -> None:
@@ -101,13 +83,24 @@ def _add_output_flags(p: argparse.ArgumentParser) -> None:
 
 
 def register(sub: Any) -> None:
-    p = sub.add_parser("mesh", help="mesh a region (GeoJSON or {outer, holes} JSON)")
-    p.add_argument("region", help="GeoJSON or JSON file ('-' for standard input)")
+    p = sub.add_parser(
+        "mesh", help="mesh a region (GeoJSON, {outer, holes} JSON, GeoPackage, Shapefile, KML)"
+    )
+    p.add_argument(
+        "region",
+        help="GeoJSON or JSON file ('-' for standard input), or .gpkg/.shp/.kml (needs pyogrio)",
+    )
+    p.add_argument("--layer", help="the layer of a multi-layer file (default: the first)")
+    p.add_argument(
+        "--crs",
+        help="CRS of the region (EPSG:4326, EPSG:32633, WKT, PROJ...); default: the file's own, "
+        "else planar. Lon/lat is meshed in metres (sizes in metres); results are in this CRS",
+    )
     p.add_argument("--size", type=_positive(float), help="target edge length (default: h property)")
     p.add_argument("--growth", type=float, default=1.2)
     p.add_argument("--size-min", type=_positive(float))
     p.add_argument("--size-max", type=_positive(float))
-    p.add_argument("--wgs84", action="store_true", help="coordinates are lon/lat")
+    p.add_argument("--wgs84", action="store_true", help="coordinates are lon/lat (--crs OGC:CRS84)")
     _add_smoothing_flags(p, "--smooth")
     _add_output_flags(p)
     p.set_defaults(handler=run_mesh)
@@ -131,20 +124,10 @@ def _read_json(path: str) -> Any:
 
 
 def _smoothing(args: argparse.Namespace) -> SmoothingParams:
-    return SmoothingParams(
-        method=args.method,
-        fitness=args.fitness,
-        alpha=args.alpha,
-        beta=args.beta,
-        population=args.population,
-        generations=args.generations,
-        crossover_rate=args.crossover_rate,
-        mutation_rate=args.mutation_rate,
-        tolerance=args.tolerance,
-        max_sweeps=args.max_sweeps,
-        iterations=args.iterations,
-        threshold=args.threshold,
-    )
+    """The engine's parameters from the flags, checked by the API's own model."""
+    values = SmoothingInput(**model_values(args, SmoothingInput)).model_dump()
+    values.pop("seed")
+    return SmoothingParams(**values)
 
 
 def _write(doc: dict[str, Any], args: argparse.Namespace) -> None:
@@ -154,10 +137,18 @@ def _write(doc: dict[str, Any], args: argparse.Namespace) -> None:
 
 def run_mesh(args: argparse.Namespace) -> int:
     output_format(args.output, args.format)  # a bad name fails before the meshing
-    parsed = parse_region(_read_json(args.region), wgs84=args.wgs84)
+    if args.region == "-":
+        boundary, file_crs = _read_json(args.region), None
+    else:
+        found = read_region_file(args.region, layer=args.layer)
+        boundary, file_crs = found.geojson, found.crs
+    crs = region_crs(boundary, args.crs or file_crs, "wgs84" if args.wgs84 else "planar")
+    parsed = parse_region(boundary, crs=crs)
     size = args.size if args.size is not None else parsed.properties.get("h")
     if size is None:
         raise ValueError("no --size given and the input has no 'h' property")
+    if parsed.projection is not None and parsed.projection.geographic:
+        parsed = parse_region(boundary, crs=crs, densify=float(size))  # follow lon/lat edges
     params = PipelineParams(
         sizing=SizingParams(float(size), args.growth, args.size_min, args.size_max),
         swap=not args.no_swap,
@@ -167,7 +158,7 @@ def run_mesh(args: argparse.Namespace) -> int:
         result = engine.mesh_then_smooth(
             parsed.region, params, np.random.default_rng(args.seed), progress=progress
         )
-        doc = result_document(result, parsed.to_lonlat)
+        doc = result_document(result, parsed.crs())
         doc["summary"]["parameters"]["seed"] = args.seed
         progress("write", 0.0)
         _write(doc, args)

@@ -17,6 +17,7 @@ from typing import Any
 
 import orjson
 
+from ..geo.antimeridian import split_at_antimeridian
 from .registry import ReadError, StoredResult
 
 __all__ = ["read_json", "write_geojson", "write_json"]
@@ -38,11 +39,34 @@ def read_json(data: bytes) -> dict[str, Any]:
     return doc
 
 
+def _geographic(doc: Mapping[str, Any]) -> bool:
+    crs = doc.get("crs")
+    return crs == "wgs84" or (isinstance(crs, Mapping) and crs.get("geographic") is True)
+
+
+def _geometry(ring: list[list[float]], geographic: bool) -> dict[str, Any]:
+    """A triangle as a GeoJSON Polygon, or (lon/lat crossing 180 degrees) the MultiPolygon of
+    its pieces east and west of the antimeridian, as RFC 7946 section 3.1.9 asks."""
+    lons = [p[0] for p in ring]
+    if not geographic or max(lons) - min(lons) <= 180.0:
+        return {"type": "Polygon", "coordinates": [ring]}
+    pieces = split_at_antimeridian(ring[:-1])
+    return {
+        "type": "MultiPolygon",
+        "coordinates": [
+            [[*o.tolist(), o[0].tolist()], *([*h.tolist(), h[0].tolist()] for h in hs)]
+            for o, hs in pieces
+        ],
+    }
+
+
 def write_geojson(result: StoredResult, options: Mapping[str, str]) -> bytes:
     """A FeatureCollection of the triangles, each carrying its ``cell_data`` figures (and its
-    ``region_name``), then of the tagged lines, each carrying its ``tag`` and ``tag_name``."""
+    ``region_name``), then of the tagged lines, each carrying its ``tag`` and ``tag_name``;
+    lon/lat results are RFC 7946 (counter-clockwise rings, triangles cut at the antimeridian)."""
     doc = result.doc
     pts = doc["points"]
+    geographic = _geographic(doc)
     cells = doc.get("cell_data", {})
     names = list(cells)
     region_names = _region_names(doc)
@@ -54,11 +78,7 @@ def write_geojson(result: StoredResult, options: Mapping[str, str]) -> bytes:
         if region_names is not None:
             props["region_name"] = region_names[t]
         features.append(
-            {
-                "type": "Feature",
-                "geometry": {"type": "Polygon", "coordinates": [ring]},
-                "properties": props,
-            }
+            {"type": "Feature", "geometry": _geometry(ring, geographic), "properties": props}
         )
     features += _line_features(doc)
     return orjson.dumps({"type": "FeatureCollection", "features": features})

@@ -17,20 +17,14 @@ import orjson
 
 import engine
 from engine import EngineError, PipelineParams, SizingParams, SmoothingParams
+from engine.pipeline import STAGE_WEIGHTS, job_progress
 
 from ..document import cell_data, mesh_from_document, result_document
+from ..geo import project_rings
 from ..geojson import build_region
 from .backend import ProgressCallback, TaskError
 
 __all__ = ["mesh", "pack", "quality", "smooth", "unpack"]
-
-#: Share of the progress bar each engine stage covers: (start, end) in percent.
-_STAGES: dict[str, tuple[int, int]] = {
-    "boundary": (0, 5),
-    "mesh": (5, 30),
-    "swap": (30, 35),
-    "smooth": (35, 99),
-}
 
 
 def pack(doc: dict[str, Any]) -> bytes:
@@ -44,12 +38,21 @@ def unpack(data: bytes) -> bytes:
     return zlib.decompress(data)
 
 
-def _stage_progress(progress: ProgressCallback) -> Callable[[str, float], None]:
-    def report(stage: str, fraction: float) -> None:
-        lo, hi = _STAGES.get(stage, (0, 99))
-        progress(round(lo + (hi - lo) * min(max(fraction, 0.0), 1.0)), stage)
+def _job_progress(
+    progress: ProgressCallback, smoothing: SmoothingParams, first: str = "boundary"
+) -> Callable[[str, float], None]:
+    """The engine's stage reports as the job's progress: each stage's share of the bar is its
+    measured cost (:func:`engine.pipeline.job_progress`), the message names it in words. A job
+    that starts at stage ``first`` (``smooth``: at "swap") has the bar rescaled to start at 0."""
+    weights = STAGE_WEIGHTS[smoothing.selection if smoothing.method == "ga" else "poor"]
+    stages = list(weights)
+    skipped = sum(weights[s] for s in stages[: stages.index(first)]) / sum(weights.values())
+    low = int(99 * skipped)
 
-    return report
+    def report(percent: int, words: str) -> None:
+        progress(round(99 * max(percent - low, 0) / (99 - low)), words)
+
+    return job_progress(report if low else progress, smoothing)
 
 
 def smoothing_params(inputs: dict[str, Any]) -> tuple[SmoothingParams, int]:
@@ -73,9 +76,14 @@ def mesh(
     """The ``mesh`` process: boundary -> mesh -> swap -> smooth."""
     started = time.perf_counter()
     try:
-        region, to_lonlat = build_region(
-            payload["parts"], wgs84=payload.get("coordinates") == "wgs84"
-        )
+        # The rings are in the meshing plane already (admission projected them), except in
+        # jobs stored before the crs input: lon/lat rings under coordinates "wgs84".
+        parts, crs = payload["parts"], payload.get("crs")
+        if crs is None and payload.get("coordinates") == "wgs84":
+            projection = project_rings(parts, "OGC:CRS84")
+            parts = [(o.tolist(), [h.tolist() for h in hs]) for o, hs in projection.parts]
+            crs = projection.describe()
+        region = build_region(parts)
         smoothing, seed = smoothing_params(payload["smoothing"])
         params = PipelineParams(
             SizingParams(
@@ -94,14 +102,14 @@ def mesh(
             region,
             params,
             np.random.default_rng(seed),
-            progress=_stage_progress(progress),
+            progress=_job_progress(progress, smoothing),
             should_stop=should_stop,
         )
     except (EngineError, ValueError, KeyError) as exc:
         if isinstance(exc, engine.Cancelled):
             raise
         raise TaskError(str(exc)) from exc
-    doc = result_document(result, to_lonlat)
+    doc = result_document(result, crs)
     doc["summary"]["parameters"]["seed"] = seed
     return pack(doc), _figures(result, started)
 
@@ -119,7 +127,7 @@ def smooth(
             smoothing,
             swap=bool(payload["swap"]),
             rng=np.random.default_rng(seed),
-            progress=_stage_progress(progress),
+            progress=_job_progress(progress, smoothing, first="swap"),
             should_stop=should_stop,
         )
     except (EngineError, ValueError) as exc:
@@ -141,7 +149,7 @@ def quality(
         params = SmoothingParams(
             fitness=payload["fitness"], alpha=payload["alpha"], beta=payload["beta"]
         )
-        progress(10, "quality")
+        progress(10, "assessing quality")
         snap = engine.assess_mesh(mesh_in, params)
     except (EngineError, ValueError, KeyError) as exc:
         raise TaskError(str(exc)) from exc

@@ -102,8 +102,16 @@ def stats_lines(panel: Panel) -> list[str]:
 
 
 def aspect_of(doc: Mapping[str, Any], points: FloatArray) -> float:
-    """Data units of y per unit of x that make the picture true to shape."""
-    if doc.get("crs") == "wgs84" and points.size:
+    """Data units of y per unit of x that make the picture true to shape: lon/lat points (a
+    document whose ``crs`` is geographic, or "wgs84" before version 1.1) are stretched by
+    1 / cos(latitude).
+
+    >>> aspect_of({"crs": {"geographic": True}}, np.array([[0.0, 60.0]]))
+    1.9999999999999996
+    """
+    crs = doc.get("crs")
+    geographic = crs == "wgs84" or (isinstance(crs, Mapping) and crs.get("geographic") is True)
+    if geographic and points.size:
         lat = float(np.mean(points[:, 1]))
         return 1.0 / max(math.cos(math.radians(lat)), 1e-3)
     return 1.0

@@ -14,6 +14,7 @@ import pytest
 import engine
 from service.jobs import runners
 from service.jobs.backend import TaskError
+from service.problems import Problem
 from service.processes import PROCESSES, estimate_mesh, inputs_at
 from service.settings import Settings
 
@@ -200,5 +201,16 @@ def test_the_region_in_a_payload_survives_a_round_trip() -> None:
     stored = json.loads(json.dumps(prepared.inputs))
     from service.geojson import build_region
 
-    region, _ = build_region(stored["parts"])
+    region = build_region(stored["parts"])
     assert np.isclose(region.area, 1.0)
+
+
+def test_coordinates_near_the_float_limit_are_a_422_not_a_server_error() -> None:
+    # Differences of such numbers overflow (a RuntimeWarning, an error under -W error).
+    ring = [[-1.7e308, 0.0], [1.7e308, 0.0], [0.0, 1.7e308]]
+    model = PROCESSES["mesh"].inputs_model.model_validate(
+        {"boundary": {"type": "Polygon", "coordinates": [ring]}, "size": 1.0}
+    )
+    with pytest.raises(Problem) as info:
+        PROCESSES["mesh"].prepare(model, _settings(), inputs_at("/inputs"))
+    assert info.value.status == 422

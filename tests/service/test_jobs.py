@@ -162,10 +162,11 @@ async def test_wgs84_region_comes_back_in_lon_lat(client: httpx.AsyncClient) -> 
     assert (await wait_for(client, job["jobID"]))["status"] == "successful"
     doc = (await _result(client, job["jobID"])).json()
     pts = np.asarray(doc["points"])
-    assert doc["crs"] == "wgs84"
+    assert doc["crs"]["input"] == "OGC:CRS84"
+    assert doc["crs"]["mesh"] == "EPSG:32632"  # the region's UTM zone
     assert np.all((pts[:, 0] >= lon - 1e-9) & (pts[:, 0] <= lon + d + 1e-9))
     assert np.all((pts[:, 1] >= lat - 1e-9) & (pts[:, 1] <= lat + d + 1e-9))
-    assert np.ptp(np.asarray(doc["points_local"])[:, 0]) > 500  # metres
+    assert np.ptp(np.asarray(doc["projected"]["points"])[:, 0]) > 500  # metres
 
 
 async def test_smooth_and_quality_processes(client: httpx.AsyncClient) -> None:

@@ -132,9 +132,10 @@ async def test_the_stored_input_is_the_normalised_region_not_the_request(
     store = app_of(client).state.manager.store
     stored = store.inputs(job["jobID"])
     assert set(stored) == {
-        "parts", "coordinates", "size", "growth", "size_min", "size_max", "swap", "smoothing",
+        "parts", "crs", "size", "growth", "size_min", "size_max", "swap", "smoothing",
         "max_triangles",
     }  # fmt: skip
+    assert stored["crs"] is None  # planar: no CRS to map back
     assert stored["parts"] == [[[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]], []]]
     assert stored["size"] == 0.5
     assert (await wait_for(client, job["jobID"]))["status"] == "successful"
