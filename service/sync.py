@@ -50,8 +50,8 @@ class Preference:
 def preference(header: str | None, max_wait: float) -> Preference:
     """The execution mode asked by ``Prefer``: ``wait=N`` waits up to ``min(N, max_wait)`` s
     (with or without ``respond-async``, which is what happens when the wait runs out);
-    ``respond-async`` alone answers at once; no header keeps the async default and applies
-    nothing.
+    ``respond-async`` alone answers at once; ``respond-sync`` (OWSLib's) waits the longest
+    allowed; no header keeps the async default and applies nothing.
 
     >>> preference("wait=5", 60.0)
     Preference(wait=5.0, applied='wait=5')
@@ -59,6 +59,8 @@ def preference(header: str | None, max_wait: float) -> Preference:
     Preference(wait=60.0, applied='wait=60')
     >>> preference("respond-async", 60.0), preference(None, 60.0)
     (Preference(wait=None, applied='respond-async'), Preference(wait=None, applied=None))
+    >>> preference("respond-sync", 60.0)
+    Preference(wait=60.0, applied='respond-sync')
     """
     prefs = parse_prefer(header)
     raw = prefs.get("wait")
@@ -67,6 +69,8 @@ def preference(header: str | None, max_wait: float) -> Preference:
         return Preference(seconds, f"wait={seconds:g}")
     if "respond-async" in prefs:
         return Preference(None, "respond-async")
+    if "respond-sync" in prefs and max_wait > 0:  # not RFC 7240's, but what OWSLib sends
+        return Preference(max_wait, "respond-sync")
     return Preference(None, None)
 
 
