@@ -14,27 +14,35 @@ from collections.abc import Iterable
 
 from .formats import FORMATS, ResultFormat
 
-__all__ = ["acceptable", "etag", "etag_matches"]
+__all__ = ["acceptable", "etag", "etag_matches", "ranked"]
 
 
-def _ranges(header: str) -> list[tuple[float, str]]:
-    """The media ranges of ``header`` with their weights, heaviest first (ties keep order)."""
-    out: list[tuple[float, int, str]] = []
-    for index, item in enumerate(header.split(",")):
-        media, *params = (p.strip() for p in item.split(";"))
-        if not media:
-            continue
-        weight = 1.0
+def ranked(accept: str) -> list[tuple[str, float]]:
+    """The media ranges of an ``Accept`` header (lower case) and their ``q`` weights, in order.
+
+    >>> ranked("text/html, */*;q=0.5")
+    [('text/html', 1.0), ('*/*', 0.5)]
+    """
+    out = []
+    for item in accept.split(","):
+        media, *params = (part.strip() for part in item.split(";"))
+        q = 1.0
         for param in params:
             name, _, value = param.partition("=")
             if name.strip().lower() == "q":
                 try:
-                    weight = float(value)
+                    q = float(value)
                 except ValueError:
-                    weight = 0.0
-        if weight > 0:
-            out.append((-weight, index, media.lower()))
-    return [(-w, media) for w, _, media in sorted(out)]
+                    q = 0.0
+        if media:
+            out.append((media.lower(), q))
+    return out
+
+
+def _ranges(header: str) -> list[str]:
+    """The accepted media ranges of ``header``, heaviest first (ties keep their order)."""
+    weighted = [(-q, i, media) for i, (media, q) in enumerate(ranked(header)) if q > 0]
+    return [media for _, _, media in sorted(weighted)]
 
 
 def acceptable(header: str | None) -> list[ResultFormat]:
@@ -43,7 +51,7 @@ def acceptable(header: str | None) -> list[ResultFormat]:
     if not header or not header.strip():
         return offered[:1]
     chosen: list[ResultFormat] = []
-    for _, media in _ranges(header):
+    for media in _ranges(header):
         kind = media.split("/", 1)[0]
         for fmt in offered:
             fits = media in ("*/*", fmt.media_type) or (
