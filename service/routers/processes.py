@@ -121,16 +121,21 @@ PreferHeader = Annotated[
     ),
 ]
 
+_LOCATION = {"schema": {"type": "string"}, "description": "the job"}
+_APPLIED = {"schema": {"type": "string"}, "description": "the Prefer preference applied, if any"}
+
 _EXECUTE_RESPONSES: dict[int | str, dict[str, Any]] = {
     200: {
         "description": "the job ended within 'Prefer: wait=N': its outputs (response=document:"
         ' {"mesh": <mesh document>}; raw: the output itself in the format asked in outputs)',
-        "content": {"application/json": {}},
+        # document: JSON; raw: the output in any result format
+        "content": {f.media_type: {} for f in FORMATS.values()},
+        "headers": {"Location": _LOCATION, "Preference-Applied": _APPLIED},
     },
     201: {
         "model": StatusInfo,
         "description": "job created (or the job of a repeated Idempotency-Key)",
-        "headers": {"Location": {"schema": {"type": "string"}, "description": "the job"}},
+        "headers": {"Location": _LOCATION, "Preference-Applied": _APPLIED},
     },
     **QUEUE_FULL,
 }
