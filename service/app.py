@@ -14,9 +14,11 @@ from typing import Any
 
 from fastapi import FastAPI
 from fastapi.middleware.cors import CORSMiddleware
+from starlette.middleware.gzip import GZipMiddleware
 from starlette.middleware.trustedhost import TrustedHostMiddleware
 
 from . import problems
+from .callbacks import CallbackNotifier
 from .jobs.backend import ComputeBackend
 from .jobs.factory import make_backend
 from .jobs.manager import JobManager
@@ -24,6 +26,7 @@ from .jobs.sqlite import SqliteJobStore
 from .jobs.store import JobStore
 from .metrics import Metrics
 from .middleware import BodyLimit
+from .openapi import complete, to_openapi30
 from .processes import PROCESSES, Process
 from .render.pool import RenderPool
 from .routers import batches, docs, jobs, landing, viewer
@@ -33,6 +36,8 @@ from .settings import Settings
 __all__ = ["create_app"]
 
 _PROBLEM_REF = {"$ref": "#/components/schemas/ProblemDetails"}
+#: Responses smaller than this are sent as they are.
+GZIP_MINIMUM_BYTES = 1024
 
 
 def create_app(
@@ -52,13 +57,18 @@ def create_app(
         compute = backend if backend is not None else make_backend(settings)
         manager = JobManager(job_store, compute, settings, app.state.metrics, procs)
         collector = app.state.metrics.watch(job_store.counts, compute.stats)
+        notifier = CallbackNotifier(job_store, settings)
+        manager.on_change.append(notifier.changed)
+        await notifier.start()
         await manager.start()
         app.state.manager = manager
+        app.state.callbacks = notifier
         try:
             yield
         finally:
             app.state.manager = None
             await manager.close()
+            await notifier.close()
             app.state.metrics.registry.unregister(collector)
             if store is None:
                 job_store.close()
@@ -87,9 +97,19 @@ def create_app(
             CORSMiddleware,
             allow_origins=settings.cors_origins,
             allow_methods=["GET", "POST", "DELETE"],
-            allow_headers=["Content-Type", "Authorization", "X-API-Key", "Idempotency-Key"],
-            expose_headers=["Location"],
+            allow_headers=[
+                "Content-Type",
+                "Authorization",
+                "X-API-Key",
+                "Idempotency-Key",
+                "Prefer",
+                "If-None-Match",
+            ],
+            expose_headers=["Location", "Preference-Applied", "ETag"],
         )
+    # JSON, GeoJSON and the mesh files compress well; small answers are not worth it. Responses
+    # already encoded (the stored mesh document sent as deflate) are left alone.
+    app.add_middleware(GZipMiddleware, minimum_size=GZIP_MINIMUM_BYTES)
     app.add_middleware(BodyLimit, max_bytes=settings.max_body_bytes)
     if settings.trusted_hosts:
         # Links and Location headers are built from the Host header unless public_url is set:
@@ -104,7 +124,8 @@ def _open_store(settings: Settings) -> JobStore:
 
 
 def _document_problems(app: FastAPI) -> None:
-    """Every error response of the OpenAPI document is problem+json (that is what we send)."""
+    """Every error response of the OpenAPI document is problem+json (that is what we send); the
+    document is completed (security, enums) and served as OpenAPI 3.0."""
     build = app.openapi
 
     def openapi() -> dict[str, Any]:
@@ -117,6 +138,7 @@ def _document_problems(app: FastAPI) -> None:
         components["ProblemDetails"] = ProblemDetails.model_json_schema()
         for name in ("HTTPValidationError", "ValidationError"):
             components.pop(name, None)
+        complete(schema)
         for path in schema.get("paths", {}).values():
             for operation in path.values():
                 responses = operation.setdefault("responses", {})
@@ -125,7 +147,8 @@ def _document_problems(app: FastAPI) -> None:
                 for code, response in responses.items():
                     if code == "default" or int(code) >= 400:
                         response["content"] = {"application/problem+json": {"schema": _PROBLEM_REF}}
-        app.openapi_schema = schema
-        return schema
+        # OGC's oas30 conformance class: the document is served as OpenAPI 3.0
+        app.openapi_schema = to_openapi30(schema)
+        return app.openapi_schema
 
     app.openapi = openapi  # type: ignore[method-assign]

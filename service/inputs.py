@@ -239,15 +239,39 @@ class QualityInputs(BaseModel):
     beta: float = Field(_S.beta, ge=0, le=1)
 
 
+def _callback_uri(value: str) -> str:
+    # Only the scheme is checked here; which hosts are allowed is the service's setting.
+    scheme, sep, rest = value.partition("://")
+    if scheme.lower() not in ("http", "https") or not sep or not rest.split("/", 1)[0]:
+        raise ValueError("a callback URI is an absolute http:// or https:// URL")
+    return value
+
+
+CallbackUri = Annotated[str, Field(max_length=2048), AfterValidator(_callback_uri)]
+
+
+class Subscriber(BaseModel):
+    """OGC's subscriber: URIs the service POSTs the job's status document to when it starts
+    (``inProgressUri``), succeeds (``successUri``) or fails (``failedUri``)."""
+
+    model_config = ConfigDict(extra="forbid", strict=True)
+
+    successUri: CallbackUri | None = None  # noqa: N815
+    inProgressUri: CallbackUri | None = None  # noqa: N815
+    failedUri: CallbackUri | None = None  # noqa: N815
+
+
 class ExecuteRequest(BaseModel):
-    """The OGC execute request; ``outputs`` and ``response`` are accepted, the result is always
-    the mesh document (``GET /jobs/{jobID}/results``)."""
+    """The OGC execute request. ``outputs`` names the outputs (and the format of a raw one),
+    ``response`` the shape of a synchronous answer (``Prefer: wait=N``), ``subscriber`` the
+    callbacks; the results stay at ``GET /jobs/{jobID}/results``."""
 
     model_config = ConfigDict(extra="forbid", strict=True)
 
     inputs: BaseModel
     outputs: dict[str, Any] | None = None
     response: Literal["document", "raw"] | None = None
+    subscriber: Subscriber | None = None
 
 
 class MeshExecute(ExecuteRequest):

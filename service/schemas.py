@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from datetime import datetime
 from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
@@ -68,10 +69,11 @@ class StatusInfo(BaseModel):
     type: Literal["process"] = "process"
     status: JobStatus
     message: str = ""
-    created: str
-    started: str | None = None
-    finished: str | None = None
-    updated: str
+    created: datetime
+    # absent (never null) until they happen, as OGC's statusInfo has them
+    started: datetime = Field(default=None, description="absent until the job starts")  # type: ignore[assignment]
+    finished: datetime = Field(default=None, description="absent until the job ends")  # type: ignore[assignment]
+    updated: datetime
     progress: int = Field(ge=0, le=100)
     attempts: int = 0
     seed: int | None = None

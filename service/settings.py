@@ -139,6 +139,36 @@ class Settings(BaseSettings):
     )
     scheduler_tls_key: Path | None = Field(None, description="private key of scheduler_tls_cert")
     log_level: str = Field("info", description="logging level of the service")
+    max_sync_wait: float = Field(
+        60.0,
+        ge=0,
+        description="seconds an execute request with 'Prefer: wait=N' may wait for its job's end"
+        " before it is answered 201 with the job (0: always asynchronous)",
+    )
+    callback_attempts: int = Field(
+        5, ge=1, le=20, description="tries of one subscriber callback (POST) before it is dropped"
+    )
+    callback_backoff: float = Field(
+        0.5, gt=0, description="seconds before a callback's first retry; doubled for each next"
+    )
+    callback_timeout: float = Field(
+        10.0, gt=0, description="seconds one callback POST may take (connect, send and answer)"
+    )
+    callback_deadline: float = Field(
+        300.0, gt=0, description="seconds all tries of one callback may take together"
+    )
+    callback_queue: int = Field(
+        1000,
+        ge=1,
+        description="callbacks waiting to be sent (more are dropped and logged), and jobs with"
+        " subscribers at once (more are refused 503)",
+    )
+    callback_senders: int = Field(4, ge=1, le=64, description="callbacks sent at once")
+    callback_private_hosts: bool = Field(
+        False,
+        description="allow callbacks to loopback, private and link-local addresses (tests, or a"
+        " receiver on the service's own network)",
+    )
 
     @field_validator("api_keys", "cors_origins", "trusted_hosts", mode="before")
     @classmethod

@@ -8,6 +8,7 @@ from typing import Any
 
 from starlette.requests import Request
 
+from .formats import FORMATS
 from .jobs.store import FINAL, BatchRecord, JobRecord, JobStatus
 
 __all__ = ["batch_info", "iso", "link", "status_info"]
@@ -49,7 +50,13 @@ def job_links(base: str, record: JobRecord) -> list[dict[str, Any]]:
         link(f"{base}/processes/{record.process}", "up", title="process description"),
     ]
     if record.status is JobStatus.successful:
-        links.append(link(f"{base}/jobs/{record.id}/results", REL_RESULTS, title="results"))
+        # one link per media type offered (OGC: rel results, with its type); the mesh document
+        # first, at the address without a query
+        results = f"{base}/jobs/{record.id}/results"
+        for fmt in FORMATS.values():
+            if fmt.writer is not None:
+                href = results if fmt.name == "json" else f"{results}?f={fmt.name}"
+                links.append(link(href, REL_RESULTS, fmt.media_type, f"results ({fmt.name})"))
     return links
 
 
@@ -62,8 +69,12 @@ def status_info(base: str, record: JobRecord) -> dict[str, Any]:
         "status": record.status.value,
         "message": record.message,
         "created": iso(record.created),
-        "started": iso(record.started),
-        "finished": iso(record.finished),
+        # OGC's statusInfo types these as date-time (never null): absent until they happen
+        **{
+            k: iso(v)
+            for k, v in (("started", record.started), ("finished", record.finished))
+            if v is not None
+        },
         "updated": iso(record.updated),
         "progress": record.progress,
         "attempts": record.attempts,

@@ -81,6 +81,8 @@ class JobManager:
         self._finishing: set[str] = set()  #: ids whose final write is on its way
         self._owners: dict[str, str] = {}  #: job id -> owner, of the jobs in _inflight
         self._closing = False
+        #: Called with a job id after its status was written (e.g. subscriber callbacks).
+        self.on_change: list[Callable[[str], None]] = []
 
     # -- lifecycle -----------------------------------------------------------------------------
     async def start(self) -> None:
@@ -145,11 +147,21 @@ class JobManager:
         so the order holds) for the reconciler. Returns the write's result, or None if kept."""
         if not self._pending:
             try:
-                return fn(*args)
+                result = fn(*args)
             except StoreUnavailable as exc:
                 log.warning("store write postponed: %s", exc, extra={"write": what})
+            else:
+                self._changed(args[0])
+                return result
         self._pending.append((what, fn, args))
         return None
+
+    def _changed(self, job_id: str) -> None:
+        for listener in self.on_change:
+            try:
+                listener(job_id)
+            except Exception:  # a listener's fault must not stop the job's own work
+                log.exception("status listener failed", extra={"job_id": job_id})
 
     def _replay(self) -> None:
         """Make the kept writes, in order; :class:`StoreUnavailable` if the store still fails."""
@@ -161,6 +173,8 @@ class JobManager:
                 raise
             except Exception:  # a write that can never be made: logged, not retried forever
                 log.exception("store write dropped", extra={"write": what})
+            else:
+                self._changed(args[0])
             self._pending.popleft()
 
     def reconcile(self) -> int:
@@ -357,6 +371,7 @@ class JobManager:
                 done = self._write("finish", self.store.finish, job_id, data, outcome.meta)
             else:  # a large result takes a while to write: not on the event loop
                 done = await asyncio.to_thread(self.store.finish, job_id, data, outcome.meta)
+                self._changed(job_id)
         except StoreUnavailable as exc:
             log.warning("store write postponed: %s", exc, extra={"write": "finish"})
             self._pending.append(("finish", self.store.finish, (job_id, data, outcome.meta)))

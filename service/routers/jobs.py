@@ -9,9 +9,11 @@ from fastapi import APIRouter, Depends, Query, Request, Response
 from fastapi.responses import JSONResponse
 
 from ..deps import ManagerDep, OwnerDep, SettingsDep, StoreDep, require_api_key
-from ..formats import FORMATS, StoredResult
+from ..formats import FORMATS, ResultFormat, StoredResult
+from ..jobfilter import JobFilter
 from ..jobs.runners import unpack
 from ..jobs.store import JobRecord, JobStatus, JobStore
+from ..negotiate import acceptable, etag, etag_matches
 from ..problems import Problem
 from ..render import PictureError, RenderPool, picture_options
 from ..schemas import JobList, StatusInfo
@@ -42,10 +44,35 @@ async def list_jobs(
     ] = None,
     limit: Annotated[int, Query(ge=1, le=1000)] = 10,
     offset: Annotated[int, Query(ge=0, le=2**62)] = 0,
+    datetime: Annotated[
+        str | None,
+        Query(
+            max_length=100,
+            description="jobs created at this RFC 3339 instant or in this interval"
+            " ('start/end', '..' for an open end)",
+        ),
+    ] = None,
+    minDuration: Annotated[
+        float | None, Query(ge=0, description="jobs that ran at least this many seconds")
+    ] = None,
+    maxDuration: Annotated[
+        float | None, Query(ge=0, description="jobs that ran at most this many seconds")
+    ] = None,
+    type: Annotated[
+        list[str] | None, Query(max_length=32, description="job types ('process')")
+    ] = None,
 ) -> JSONResponse:
-    records, total = store.search(
-        status=status or (), process=processID or (), owner=owner, limit=limit, offset=offset
-    )
+    bounds = JobFilter.parse(datetime, minDuration, maxDuration, type)
+
+    def search(size: int, start: int) -> tuple[list[JobRecord], int]:
+        return store.search(
+            status=status or (), process=processID or (), owner=owner, limit=size, offset=start
+        )
+
+    if bounds.active:  # filters the store does not index: read its pages off the loop
+        records, total = await asyncio.to_thread(bounds.page, search, limit, offset)
+    else:
+        records, total = search(limit, offset)
     base = base_url(request)
     url = request.url
 
@@ -101,15 +128,29 @@ def _not_ready(record: JobRecord) -> Problem:
     )
 
 
+#: Clients may keep a result but must ask again before using it: a dismissed or purged job's
+#: results are gone (410/404), which only a revalidation (cheap: 304) can tell them.
+RESULT_CACHE_CONTROL = "private, no-cache"
+
+
 @router.get(
     "/{jobId}/results",
-    summary="A job's results: the mesh document, or another format with f=",
+    summary="A job's results: the mesh document, or another format with f= or Accept",
     response_class=Response,
     responses={
         200: {
             "description": "the result in the requested format",
             "content": {f.media_type: {} for f in FORMATS.values()},
-        }
+            "headers": {
+                "ETag": {"schema": {"type": "string"}, "description": "for If-None-Match"},
+                "Cache-Control": {"schema": {"type": "string"}},
+            },
+        },
+        304: {"description": "not modified (If-None-Match matched the ETag)"},
+        404: {"description": "no such job, or its results are not ready yet"},
+        406: {"description": "no format offered matches Accept"},
+        409: {"description": "the job failed: it has no results"},
+        410: {"description": "the job was dismissed: its results were deleted"},
     },
 )
 async def get_results(
@@ -119,17 +160,14 @@ async def get_results(
     owner: OwnerDep,
     settings: SettingsDep,
     f: Annotated[
-        str, Query(description=f"result format: {' | '.join(FORMATS)}", max_length=32)
-    ] = "json",
+        str | None,
+        Query(
+            description=f"result format: {' | '.join(FORMATS)}; without it, Accept chooses",
+            max_length=32,
+        ),
+    ] = None,
 ) -> Response:
-    fmt = FORMATS.get(f)
-    if fmt is None:
-        raise Problem(
-            400,
-            f"unknown format {f!r}; choose one of {sorted(FORMATS)}",
-            kind="invalid-parameter",
-            parameter="f",
-        )
+    fmt = _result_format(f, request.headers.get("accept"))
     if fmt.name in PICTURES:  # checked before anything is loaded
         try:
             picture_options(request.query_params, settings.max_picture_pixels)
@@ -140,9 +178,18 @@ async def get_results(
     record = _job(store, jobId, owner)
     if record.status is not JobStatus.successful:
         raise _not_ready(record)
-    headers = {"Content-Disposition": f'inline; filename="{jobId}{fmt.extension}"'}
+    options = tuple(sorted(request.query_params.multi_items()))
+    tag = etag((jobId, record.finished, fmt.name, options))
+    headers = {
+        "Content-Disposition": f'inline; filename="{jobId}{fmt.extension}"',
+        "ETag": tag,
+        "Cache-Control": RESULT_CACHE_CONTROL,
+        "Vary": "Accept, Accept-Encoding",
+    }
+    if etag_matches(request.headers.get("if-none-match"), tag):
+        return Response(status_code=304, headers=headers)
     pool: RenderPool = request.app.state.render_pool
-    key = (jobId, fmt.name, tuple(sorted(request.query_params.multi_items())))
+    key = (jobId, fmt.name, options)
     if fmt.name != "json" and (cached := pool.cached(key)) is not None:
         return Response(cached, media_type=fmt.media_type, headers=headers)
     blob = await asyncio.to_thread(store.result, jobId)
@@ -161,3 +208,26 @@ async def get_results(
     else:  # pictures and mesh files: bounded, and made once per job and options
         body = await pool.render(key, render)
     return Response(body, media_type=fmt.media_type, headers=headers)
+
+
+def _result_format(f: str | None, accept: str | None) -> ResultFormat:
+    """The format named by ``f``, else the best one ``Accept`` takes (400 / 406 otherwise)."""
+    if f is not None:
+        fmt = FORMATS.get(f)
+        if fmt is None:
+            raise Problem(
+                400,
+                f"unknown format {f!r}; choose one of {sorted(FORMATS)}",
+                kind="invalid-parameter",
+                parameter="f",
+            )
+        return fmt
+    chosen = acceptable(accept)
+    if not chosen:
+        offered = sorted(x.media_type for x in FORMATS.values() if x.writer is not None)
+        raise Problem(
+            406,
+            f"no result format matches Accept {accept!r}; the media types are {offered}",
+            kind="not-acceptable",
+        )
+    return chosen[0]

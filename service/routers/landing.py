@@ -50,7 +50,7 @@ def landing(request: Request, response: Response) -> Any:
             link(
                 f"{base}/openapi.json",
                 "service-desc",
-                "application/vnd.oai.openapi+json;version=3.1",
+                "application/vnd.oai.openapi+json;version=3.0",
                 "the API definition",
             ),
             link(f"{base}/docs", "service-doc", "text/html", "the API documentation"),

@@ -1,13 +1,16 @@
-"""``/processes``: the process list, their OGC descriptions, and execution (always async)."""
+"""``/processes``: the process list, their OGC descriptions, and execution (asynchronous by
+default, synchronous with ``Prefer: wait=N``)."""
 
 from collections.abc import Callable
 from typing import Annotated, Any, TypeVar
 
 import anyio.to_thread
 from fastapi import APIRouter, Header, Request
-from fastapi.responses import JSONResponse
+from fastapi.responses import JSONResponse, Response
 
+from ..callbacks import CallbackNotifier
 from ..deps import ManagerDep, OwnerDep, SettingsDep
+from ..formats import FORMATS
 from ..inputs import ExecuteRequest
 from ..jobs.manager import request_digest
 from ..jobs.store import IdempotencyConflict
@@ -15,6 +18,7 @@ from ..middleware import JsonBodyRoute
 from ..problems import Problem
 from ..processes import PROCESSES, Process, inputs_at
 from ..schemas import ProcessDescription, ProcessList, StatusInfo
+from ..sync import output_format, preference, render_output, wait_final
 from ..views import base_url, link, status_info
 
 _REL_EXECUTE = "http://www.opengis.net/def/rel/ogc/1.0/execute"
@@ -48,11 +52,18 @@ def describe(process: Process, base: str) -> dict[str, Any]:
             "maxOccurs": 1,
         }
     return {
-        **process.summary(),
+        **summary(process),
         "inputs": inputs,
         "outputs": process.outputs,
         "links": _process_links(process, base),
     }
+
+
+def summary(process: Process) -> dict[str, Any]:
+    """The process summary, with the execution modes this router offers."""
+    out = process.summary()
+    out["jobControlOptions"] = ["sync-execute", *out["jobControlOptions"]]
+    return out
 
 
 def _process_links(process: Process, base: str) -> list[dict[str, Any]]:
@@ -99,11 +110,32 @@ QUEUE_FULL: dict[int | str, dict[str, Any]] = {
     }
 }
 
+PreferHeader = Annotated[
+    str | None,
+    Header(
+        alias="Prefer",
+        max_length=200,
+        description="RFC 7240: 'wait=N' waits up to N s (capped by the service) for the job's"
+        " end and answers 200 with its outputs; 'respond-async' (the default) answers 201 at once",
+        examples=["wait=30", "respond-async"],
+    ),
+]
+
+_LOCATION = {"schema": {"type": "string"}, "description": "the job"}
+_APPLIED = {"schema": {"type": "string"}, "description": "the Prefer preference applied, if any"}
+
 _EXECUTE_RESPONSES: dict[int | str, dict[str, Any]] = {
+    200: {
+        "description": "the job ended within 'Prefer: wait=N': its outputs (response=document:"
+        ' {"mesh": <mesh document>}; raw: the output itself in the format asked in outputs)',
+        # document: JSON; raw: the output in any result format
+        "content": {f.media_type: {} for f in FORMATS.values()},
+        "headers": {"Location": _LOCATION, "Preference-Applied": _APPLIED},
+    },
     201: {
         "model": StatusInfo,
         "description": "job created (or the job of a repeated Idempotency-Key)",
-        "headers": {"Location": {"schema": {"type": "string"}, "description": "the job"}},
+        "headers": {"Location": _LOCATION, "Preference-Applied": _APPLIED},
     },
     **QUEUE_FULL,
 }
@@ -119,8 +151,14 @@ def _execute_route(router: APIRouter, process: Process) -> None:
         settings: SettingsDep,
         owner: OwnerDep,
         idempotency_key: IdempotencyKey = None,
-    ) -> JSONResponse:
+        prefer: PreferHeader = None,
+    ) -> Response:
         request_body: ExecuteRequest = body
+        fmt = output_format(request_body.outputs, process.outputs)
+        mode = preference(prefer, settings.max_sync_wait)
+        callbacks: CallbackNotifier = request.app.state.callbacks
+        if request_body.subscriber is not None:
+            callbacks.check(request_body.subscriber)
         prepared = await off_loop(
             process.prepare, request_body.inputs, settings, inputs_at("/inputs")
         )
@@ -147,9 +185,25 @@ def _execute_route(router: APIRouter, process: Process) -> None:
                 title="Idempotency key reused",
             ) from None
         base = base_url(request)
-        headers = {"Location": f"{base}/jobs/{record.id}", "Preference-Applied": "respond-async"}
+        if created and request_body.subscriber is not None:  # before any await: no event missed
+            callbacks.subscribe(record.id, base, request_body.subscriber)
+        headers = {"Location": f"{base}/jobs/{record.id}"}
+        if mode.applied is not None:
+            headers["Preference-Applied"] = mode.applied
         if not created:
             headers["Idempotent-Replayed"] = "true"
+        if mode.wait is not None:
+            record = await wait_final(manager.store, record.id, mode.wait) or record
+            blob = await off_loop(manager.store.result, record.id)
+            if blob is not None:
+                if request_body.response == "raw":
+                    raw = await off_loop(render_output, blob, fmt)
+                    return Response(raw, media_type=fmt.media_type, headers=headers)
+                # document: the outputs keyed by output id; the mesh document is JSON already
+                mesh = await off_loop(render_output, blob, FORMATS["json"])
+                return Response(
+                    b'{"mesh":' + mesh + b"}", media_type="application/json", headers=headers
+                )
         return JSONResponse(status_info(base, record), status_code=201, headers=headers)
 
     router.add_api_route(
@@ -157,7 +211,7 @@ def _execute_route(router: APIRouter, process: Process) -> None:
         execute,
         methods=["POST"],
         status_code=201,
-        summary=f"Execute {process.id} (asynchronously)",
+        summary=f"Execute {process.id} (asynchronously, or synchronously with Prefer: wait=N)",
         response_model=None,
         responses=_EXECUTE_RESPONSES,
         operation_id=f"execute_{process.id}",
@@ -173,9 +227,7 @@ def build_router(processes: dict[str, Process] | None = None) -> APIRouter:
     def list_processes(request: Request) -> dict[str, Any]:
         base = base_url(request)
         return {
-            "processes": [
-                {**p.summary(), "links": _process_links(p, base)} for p in procs.values()
-            ],
+            "processes": [{**summary(p), "links": _process_links(p, base)} for p in procs.values()],
             "links": [link(f"{base}/processes", "self", title="processes")],
         }
 

@@ -14,6 +14,8 @@ from fastapi import APIRouter, FastAPI
 from fastapi.responses import HTMLResponse
 from fastapi.staticfiles import StaticFiles
 
+from ..negotiate import ranked
+
 __all__ = ["STATIC", "install", "page", "prefers_html"]
 
 #: The page's assets (package data).
@@ -52,23 +54,6 @@ def viewer() -> HTMLResponse:
     return page()
 
 
-def _ranked(accept: str) -> list[tuple[str, float]]:
-    out = []
-    for item in accept.split(","):
-        media, *params = (part.strip() for part in item.split(";"))
-        q = 1.0
-        for param in params:
-            name, _, value = param.partition("=")
-            if name.strip().lower() == "q":
-                try:
-                    q = float(value)
-                except ValueError:
-                    q = 0.0
-        if media:
-            out.append((media.lower(), q))
-    return out
-
-
 def prefers_html(accept: str) -> bool:
     """Whether an ``Accept`` header ranks HTML above JSON: browsers do; curl, httpx and OGC
     clients (``*/*`` or ``application/json``) do not.
@@ -80,14 +65,14 @@ def prefers_html(accept: str) -> bool:
     >>> prefers_html("application/json, text/html;q=0.5")
     False
     """
-    ranked = _ranked(accept)
-    html = max((q for media, q in ranked if media == "text/html"), default=0.0)
-    json = max((q for media, q in ranked if media == "application/json"), default=0.0)
+    weights = ranked(accept)
+    html = max((q for media, q in weights if media == "text/html"), default=0.0)
+    json = max((q for media, q in weights if media == "application/json"), default=0.0)
     if html <= 0.0 or html < json:
         return False
     if html > json:
         return True
-    medias = [media for media, _ in ranked]
+    medias = [media for media, _ in weights]
     return medias.index("text/html") < medias.index("application/json")
 
 

@@ -37,7 +37,7 @@ async def test_process_list_and_descriptions(client: httpx.AsyncClient) -> None:
     ids = [p["id"] for p in doc["processes"]]
     assert {"mesh", "smooth", "quality"} <= set(ids)
     for p in doc["processes"]:
-        assert p["jobControlOptions"] == ["async-execute", "dismiss"]
+        assert p["jobControlOptions"] == ["sync-execute", "async-execute", "dismiss"]
         assert any(link["rel"] == "self" for link in p["links"])
     mesh = (await client.get("/processes/mesh")).json()
     inputs = mesh["inputs"]

@@ -223,7 +223,7 @@ async def test_dismiss_a_queued_job_it_never_runs(client: httpx.AsyncClient) -> 
     follow = await _mesh(client)  # the worker is free again and runs the next job
     assert (await wait_for(client, follow["jobID"]))["status"] == "successful"
     doc = (await client.get(f"/jobs/{queued['jobID']}")).json()
-    assert (doc["status"], doc["started"], doc["attempts"]) == ("dismissed", None, 0)
+    assert (doc["status"], doc.get("started"), doc["attempts"]) == ("dismissed", None, 0)
 
 
 async def test_dismiss_a_running_job_stops_it(client: httpx.AsyncClient) -> None:

@@ -1,0 +1,126 @@
+"""Synchronous execution: the ``Prefer`` header (RFC 7240), waiting for a job's end without
+blocking the event loop, and the execute response's outputs (``response`` and ``outputs``).
+
+>>> parse_prefer("respond-async, wait=10")
+{'respond-async': '', 'wait': '10'}
+"""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from .formats import FORMATS, ResultFormat, StoredResult
+from .jobs.runners import unpack
+from .jobs.store import FINAL, JobRecord, JobStore
+from .problems import Problem
+
+__all__ = ["Preference", "output_format", "parse_prefer", "preference", "wait_final"]
+
+#: First and last pause between two looks at the store while a sync request waits.
+_FIRST_POLL, _LAST_POLL = 0.01, 0.25
+
+
+def parse_prefer(header: str | None) -> dict[str, str]:
+    """The preferences of a ``Prefer`` header: name (lower case) -> value (``''`` if none).
+
+    Parameters after ``;`` are ignored (none of ours has any); the first of a repeated name wins.
+    """
+    out: dict[str, str] = {}
+    for item in (header or "").split(","):
+        token = item.split(";", 1)[0].strip()
+        if not token:
+            continue
+        name, _, value = token.partition("=")
+        out.setdefault(name.strip().lower(), value.strip().strip('"'))
+    return out
+
+
+@dataclass(frozen=True)
+class Preference:
+    """How one execute request is answered."""
+
+    wait: float | None  #: seconds to wait for the job's end; None: answer at once (async)
+    applied: str | None  #: the ``Preference-Applied`` value, None when no preference applied
+
+
+def preference(header: str | None, max_wait: float) -> Preference:
+    """The execution mode asked by ``Prefer``: ``wait=N`` waits up to ``min(N, max_wait)`` s
+    (with or without ``respond-async``, which is what happens when the wait runs out);
+    ``respond-async`` alone answers at once; ``respond-sync`` (OWSLib's) waits the longest
+    allowed; no header keeps the async default and applies nothing.
+
+    >>> preference("wait=5", 60.0)
+    Preference(wait=5.0, applied='wait=5')
+    >>> preference("wait=500, respond-async", 60.0)
+    Preference(wait=60.0, applied='wait=60')
+    >>> preference("respond-async", 60.0), preference(None, 60.0)
+    (Preference(wait=None, applied='respond-async'), Preference(wait=None, applied=None))
+    >>> preference("respond-sync", 60.0)
+    Preference(wait=60.0, applied='respond-sync')
+    """
+    prefs = parse_prefer(header)
+    raw = prefs.get("wait")
+    if raw is not None and raw.isdigit() and max_wait > 0:
+        seconds = min(float(raw), max_wait)
+        return Preference(seconds, f"wait={seconds:g}")
+    if "respond-async" in prefs:
+        return Preference(None, "respond-async")
+    if "respond-sync" in prefs and max_wait > 0:  # not RFC 7240's, but what OWSLib sends
+        return Preference(max_wait, "respond-sync")
+    return Preference(None, None)
+
+
+async def wait_final(store: JobStore, job_id: str, timeout: float) -> JobRecord | None:
+    """The job's record once it is final, or its latest record when ``timeout`` s pass first.
+
+    Polls the store (the job may finish in any worker or service process) with growing pauses,
+    awaiting between looks, so the event loop is never blocked.
+    """
+    deadline = time.monotonic() + timeout
+    pause = _FIRST_POLL
+    while True:
+        record = await asyncio.to_thread(store.get, job_id)
+        left = deadline - time.monotonic()
+        if record is None or record.status in FINAL or left <= 0:
+            return record
+        await asyncio.sleep(min(pause, left))
+        pause = min(pause * 2, _LAST_POLL)
+
+
+def output_format(outputs: Mapping[str, Any] | None, known: Mapping[str, Any]) -> ResultFormat:
+    """The format of the (single) output asked in an execute request's ``outputs``: checks the
+    output ids (400 for an unknown one) and ``format.mediaType`` (400 for one not offered);
+    the mesh document (json) when no format is asked."""
+    chosen = FORMATS["json"]
+    for output_id, spec in (outputs or {}).items():
+        if output_id not in known:
+            raise Problem(
+                400,
+                f"there is no output {output_id!r}; the outputs are {sorted(known)}",
+                kind="invalid-parameter",
+                parameter="outputs",
+            )
+        fmt = spec.get("format") if isinstance(spec, Mapping) else None
+        media = fmt.get("mediaType") if isinstance(fmt, Mapping) else None
+        if media is None:
+            continue
+        offered = {f.media_type: f for f in FORMATS.values() if f.writer is not None}
+        if media not in offered:
+            raise Problem(
+                400,
+                f"output {output_id!r} is not offered as {media!r}; choose one of"
+                f" {sorted(offered)}",
+                kind="invalid-parameter",
+                parameter="outputs",
+            )
+        chosen = offered[media]
+    return chosen
+
+
+def render_output(blob: bytes, fmt: ResultFormat) -> bytes:
+    """A stored result in ``fmt`` (with default options): CPU work, run it in a thread."""
+    return fmt.render(StoredResult(unpack(blob)), {})
