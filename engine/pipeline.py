@@ -28,6 +28,7 @@ from .swap import regularise_valence, swap_diagonals
 __all__ = [
     "STAGE_WEIGHTS",
     "STAGE_WORDS",
+    "SUBSTAGES",
     "assess_mesh",
     "compiled_kernels",
     "job_progress",
@@ -44,6 +45,16 @@ STAGE_WORDS: dict[str, str] = {
     "mesh": "meshing (advancing front)",
     "swap": "swapping diagonals",
     "smooth": "smoothing",
+}
+#: The mesher's own stages (:func:`mesh_region`) as parts of the job's stages: (job stage, the
+#: part of it where the sub-stage starts, where it ends); shares from the mesher's timings.
+SUBSTAGES: dict[str, tuple[str, float, float]] = {
+    "sizing": ("boundary", 0.0, 0.4),
+    "estimate": ("boundary", 0.4, 0.7),
+    "discretize": ("boundary", 0.7, 1.0),
+    "front": ("mesh", 0.0, 0.6),
+    "collapse": ("mesh", 0.75, 0.8),
+    "relax": ("mesh", 0.6, 1.0),
 }
 #: Share of a job's time in each stage, in pipeline order, by smoothing selection: the means of
 #: ``timings`` over the public cases and plate_hole at h = 0.015 (benchmarks/smooth_bench.py;
@@ -80,8 +91,12 @@ def job_progress(
 
     def progress(stage: str, fraction: float) -> None:
         nonlocal reached
+        fraction = min(max(fraction, 0.0), 1.0)
+        if stage in SUBSTAGES:
+            stage, lo, hi = SUBSTAGES[stage]
+            fraction = lo + (hi - lo) * fraction
         share = weights.get(stage, 0.0) / total
-        done = start.get(stage, 0.0) + share * min(max(fraction, 0.0), 1.0)
+        done = start.get(stage, 0.0) + share * fraction
         reached = max(reached, int(99 * done))
         report(reached, STAGE_WORDS.get(stage, stage))
 
@@ -135,7 +150,7 @@ def mesh_region(
     (:func:`engine.collapse.collapse_edges`) and relaxation again (0 gives the raw front).
     Raises :class:`LimitExceeded` when the estimated (or, while meshing, the actual) triangle
     count is over ``max_triangles``; every stage polls ``should_stop`` and reports ``progress``
-    (stages ``sizing``, ``estimate``, ``discretize``, ``mesh``, ``relax``, ``collapse``).
+    (stages ``sizing``, ``estimate``, ``discretize``, ``front``, ``relax``, ``collapse``).
     """
     progress = progress or _no_progress
     should_stop = should_stop or _never
@@ -153,7 +168,7 @@ def mesh_region(
         )
     boundary = discretize(region, field, progress, should_stop)
     t1 = time.perf_counter()
-    progress("mesh", 0.0)
+    progress("front", 0.0)
     front = advance_front(boundary, field, should_stop, max_triangles=max_triangles)
     progress("relax", 0.0)
     mesh = relax(front, relax_sweeps, should_stop=should_stop)
@@ -293,10 +308,10 @@ def compiled_kernels() -> dict[str, int]:
 
     from numba.core.registry import CPUDispatcher
 
-    package = __name__.rpartition(".")[0]
+    package = importlib.import_module(__name__.rpartition(".")[0])
     out: dict[str, int] = {}
-    for info in pkgutil.iter_modules(importlib.import_module(package).__path__):
-        module = importlib.import_module(f"{package}.{info.name}")
+    for info in pkgutil.walk_packages(package.__path__, f"{package.__name__}."):
+        module = importlib.import_module(info.name)
         for name, obj in vars(module).items():
             if isinstance(obj, CPUDispatcher) and obj.py_func.__module__ == module.__name__:
                 out[f"{module.__name__}.{name}"] = len(obj.signatures)

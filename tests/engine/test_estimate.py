@@ -103,7 +103,7 @@ def test_every_meshing_stage_reports_progress_and_can_be_cancelled() -> None:
     region = _spike(0.01)
     seen: list[str] = []
     mesh_region(region, SizingParams(size=0.5), progress=lambda s, f: seen.append(s))
-    assert {"sizing", "estimate", "discretize", "mesh", "relax", "collapse"} <= set(seen)
+    assert {"sizing", "estimate", "discretize", "front", "relax", "collapse"} <= set(seen)
     for stage in ("sizing", "estimate", "discretize", "relax"):
         polls: list[str] = []
 

@@ -108,7 +108,7 @@ def test_warmup_compiles_every_kernel_a_job_calls() -> None:
     counts = compiled_kernels()
     assert compiled == tuple(sorted(name for name, n in counts.items() if n))
     ga = {f"engine.ga_kernels.{k}" for k in ("ga_init", "ga_step", "accept_moves")}
-    assert ga | {"engine.front._run", "engine.star.all_fitness"} <= set(compiled)
+    assert ga | {"engine.front.driver._run", "engine.star.all_fitness"} <= set(compiled)
     # Jobs on another region, with every smoother and selection, compile nothing more.
     region = engine.make_region([([[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]], [])])
     for method in SMOOTHERS:
