@@ -11,13 +11,20 @@ from __future__ import annotations
 import math
 import secrets
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 from pydantic import BaseModel
 
 import engine
 
+from .control import (
+    checked_constraints,
+    checked_refinements,
+    estimate_or_refuse,
+    refinements_of,
+    stored_tagging,
+)
 from .document import mesh_from_document
 from .geojson import BoundaryInputError, ParsedRegion, parse_region
 from .inputs import (
@@ -122,9 +129,12 @@ def count_rings(obj: Any, limit: int = 10**9) -> tuple[int, int]:
     return rings, positions
 
 
-def estimate_mesh(region: engine.Region, sizing: engine.SizingParams) -> int:
+def estimate_mesh(
+    region: engine.Region, sizing: engine.SizingParams, cap: int | None = None
+) -> int:
     """Triangles the engine expects for ``region`` at ``sizing``: the engine's own estimator
-    (the one the worker checks again), so admission and the engine cannot disagree.
+    (the one the worker checks again), so admission and the engine cannot disagree; counting
+    stops past ``cap`` (then the result only says the count is over it).
 
     >>> square = engine.make_region([([[0, 0], [1, 0], [1, 1], [0, 1]], [])])
     >>> estimate_mesh(square, engine.SizingParams(size=0.1))
@@ -132,7 +142,7 @@ def estimate_mesh(region: engine.Region, sizing: engine.SizingParams) -> int:
     """
     from engine.sizing import build_size_field
 
-    return int(engine.estimate_triangles(region, build_size_field(region, sizing)))
+    return int(engine.estimate_triangles(region, build_size_field(region, sizing), cap=cap))
 
 
 def _smoothing(smoothing: SmoothingInput, where: Where) -> dict[str, Any]:
@@ -260,9 +270,16 @@ def _prepare_mesh(inputs: MeshInputs, settings: Settings, where: Where) -> Prepa
         size = float(h)
     lengths = {"size": size, "size_min": inputs.size_min, "size_max": inputs.size_max}
     sizing = _sizing(parsed, lengths, inputs.growth, where)
+    refinements = checked_refinements(
+        inputs.refinements,
+        inputs.coordinates == "planar",
+        parsed.region.n_vertices,
+        settings.max_vertices,
+        where("refinements"),
+    )
+    sizing = replace(sizing, refinements=refinements_of(refinements))
     smoothing = _smoothing(inputs.smoothing, where)
-    triangles = estimate_mesh(parsed.region, sizing)
-    _limit(triangles, settings.max_triangles, "the estimated number of triangles", where("size"))
+    triangles = estimate_or_refuse(parsed.region, sizing, settings.max_triangles, where("size"))
     _ga_work(smoothing, triangles, settings, where)
     # What the job keeps and the worker gets: the rings as floats and the resolved parameters,
     # never the client's JSON (whose foreign members may be anything).
@@ -276,6 +293,11 @@ def _prepare_mesh(inputs: MeshInputs, settings: Settings, where: Where) -> Prepa
         "swap": inputs.swap,
         "smoothing": smoothing,
         "max_triangles": triangle_cap(smoothing, settings),
+        "tagging": stored_tagging(inputs.boundary, parsed, at),
+        "refinements": refinements,
+        "constraints": checked_constraints(
+            inputs.constraints, parsed.region, inputs.coordinates == "planar", where("constraints")
+        ),
     }
     return Prepared(resolved, smoothing["seed"], triangles)
 

@@ -18,6 +18,7 @@ import orjson
 import engine
 from engine import EngineError, PipelineParams, SizingParams, SmoothingParams
 
+from ..control import refinements_of, run_mesh
 from ..document import cell_data, mesh_from_document, result_document
 from ..geojson import build_region
 from .backend import ProgressCallback, TaskError
@@ -83,6 +84,7 @@ def mesh(
                 float(payload["growth"]),
                 payload.get("size_min"),
                 payload.get("size_max"),
+                refinements_of(payload.get("refinements", [])),
             ),
             swap=bool(payload["swap"]),
             # The service's limits (max_triangles, and the GA work as triangles) on the real
@@ -90,18 +92,19 @@ def mesh(
             max_triangles=int(payload["max_triangles"]),
             smoothing=smoothing,
         )
-        result = engine.mesh_then_smooth(
+        result, tags = run_mesh(
+            payload,
             region,
             params,
             np.random.default_rng(seed),
-            progress=_stage_progress(progress),
-            should_stop=should_stop,
+            _stage_progress(progress),
+            should_stop,
         )
     except (EngineError, ValueError, KeyError) as exc:
         if isinstance(exc, engine.Cancelled):
             raise
         raise TaskError(str(exc)) from exc
-    doc = result_document(result, to_lonlat)
+    doc = result_document(result, to_lonlat, tags=tags)
     doc["summary"]["parameters"]["seed"] = seed
     return pack(doc), _figures(result, started)
 
