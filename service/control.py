@@ -186,7 +186,8 @@ def checked_constraints(obj: Any, region: engine.Region, planar: bool, at: str) 
     for item, ptr in items:
         if isinstance(item, dict) and item.get("type") == "Feature":
             geoms.append(item.get("geometry"))
-            names.append(region_name(item.get("properties") or {}))
+            props = item.get("properties")
+            names.append(region_name(props) if isinstance(props, dict) else None)
             pointers.append(f"{ptr}/geometry")
         else:
             geoms.append(item)

@@ -141,3 +141,102 @@ async def test_each_feature_of_a_collection_names_its_region(client: httpx.Async
     pts = np.asarray(doc["points"])
     east = np.asarray(doc["lines"])[np.asarray(doc["line_data"]["tag"]) == doc["tags"]["east"]]
     assert np.allclose(pts[east][..., 0], 3.0)
+
+
+async def _result(client: httpx.AsyncClient, inputs: dict[str, Any]) -> dict[str, Any]:
+    job = await submit(client, "mesh", inputs)
+    status = await wait_for(client, job["jobID"])
+    assert status["status"] == "successful", status
+    doc: dict[str, Any] = (await client.get(f"/jobs/{job['jobID']}/results")).json()
+    return doc
+
+
+async def test_a_refinement_makes_the_mesh_finer_near_it(client: httpx.AsyncClient) -> None:
+    point = {"type": "Point", "coordinates": [0.5, 0.5]}
+    plain = await _result(client, {"boundary": SQUARE, "size": 0.2, "smoothing": NONE})
+    refined = await _result(
+        client,
+        {
+            "boundary": SQUARE,
+            "size": 0.2,
+            "smoothing": NONE,
+            "refinements": [{"geometry": point, "size": 0.02}],
+        },
+    )
+    assert len(refined["triangles"]) > 3 * len(plain["triangles"])
+    pts = np.asarray(refined["points"])
+    near = np.hypot(*(pts - 0.5).T) < 0.03
+    assert near.sum() >= 5  # nodes about 0.02 apart around the point
+
+
+async def test_bad_refinements_are_located_422s(limited: httpx.AsyncClient) -> None:
+    base = {"boundary": SQUARE, "size": 0.2, "smoothing": NONE}
+    bad = [
+        {"geometry": {"type": "Point", "coordinates": [0.5, 0.5]}, "size": 0.1},
+        {"geometry": {"type": "Nowhere", "coordinates": []}, "size": 0.1},
+    ]
+    r = await _execute(limited, {**base, "refinements": bad})
+    assert_problem(r, 422, "invalid-input", "/inputs/refinements/1")
+    long = [[i / 6000, 0.5] for i in range(6000)]
+    r = await _execute(
+        limited,
+        {
+            **base,
+            "refinements": [{"geometry": {"type": "LineString", "coordinates": long}, "size": 0.1}],
+        },
+    )
+    assert_problem(r, 422, "limit-exceeded", "/inputs/refinements/0")
+    r = await _execute(limited, {**base, "refinements": [bad[0]] * 1001})
+    assert r.status_code == 422
+
+
+DAM = {"type": "LineString", "coordinates": [[0.2, 0.3], [0.8, 0.6]]}
+
+
+async def test_constraints_become_tagged_mesh_edges_and_nodes(client: httpx.AsyncClient) -> None:
+    constraints = {
+        "type": "FeatureCollection",
+        "features": [
+            {"type": "Feature", "properties": {"name": "dam"}, "geometry": DAM},
+            {
+                "type": "Feature",
+                "properties": {},
+                "geometry": {"type": "Point", "coordinates": [0.7, 0.2]},
+            },
+        ],
+    }
+    doc = await _result(
+        client,
+        {
+            "boundary": SQUARE,
+            "size": 0.1,
+            "smoothing": {"method": "laplacian"},
+            "constraints": constraints,
+        },
+    )
+    assert "dam" in doc["tags"]
+    pts = np.asarray(doc["points"])
+    dam = np.asarray(doc["lines"])[np.asarray(doc["line_data"]["tag"]) == doc["tags"]["dam"]]
+    ends = pts[dam]  # every dam edge lies on the line y = 0.3 + 0.5 (x - 0.2)
+    assert np.allclose(ends[..., 1], 0.3 + 0.5 * (ends[..., 0] - 0.2), atol=1e-9)
+    assert np.isclose(np.hypot(*(ends[:, 1] - ends[:, 0]).T).sum(), np.hypot(0.6, 0.3))
+    assert np.min(np.hypot(*(pts - [0.7, 0.2]).T)) < 1e-12  # the point is a node
+    fixed = np.asarray(doc["point_data"]["fixed"], dtype=bool)
+    assert fixed[np.unique(dam)].all()
+
+
+async def test_a_constraint_outside_the_region_is_a_located_422(client: httpx.AsyncClient) -> None:
+    out = {"type": "LineString", "coordinates": [[0.5, 0.5], [1.5, 0.5]]}
+    fc = {
+        "type": "FeatureCollection",
+        "features": [{"type": "Feature", "properties": None, "geometry": out}],
+    }
+    r = await _execute(
+        client, {"boundary": SQUARE, "size": 0.1, "smoothing": NONE, "constraints": fc}
+    )
+    doc = assert_problem(r, 422, "invalid-input", "/inputs/constraints/features/0/geometry")
+    assert "leaves the region" in doc["detail"]
+    r = await _execute(
+        client, {"boundary": SQUARE, "size": 0.1, "smoothing": NONE, "constraints": SQUARE}
+    )
+    assert_problem(r, 422, "invalid-input", "/inputs/constraints")
