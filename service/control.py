@@ -29,6 +29,7 @@ __all__ = [
     "checked_constraints",
     "checked_refinements",
     "estimate_or_refuse",
+    "local_payload",
     "refinements_of",
     "run_mesh",
     "stored_tagging",
@@ -228,3 +229,27 @@ def run_mesh(
         parts, _ = project_wgs84(parts)
     tagging = tagging_of(payload.get("tagging"), parts)
     return result, engine.tag_mesh(result.smoothed.mesh, region, tagging, lines, pinned)
+
+
+def local_payload(
+    boundary: Any, parsed: ParsedRegion, inputs: Mapping[str, Any], wgs84: bool
+) -> dict[str, Any]:
+    """What :func:`run_mesh` needs besides the parameters, for the command line: the stored
+    tagging, refinements and constraints of ``inputs``; ``ValueError`` naming the faulty one."""
+    planar = not wgs84
+    try:
+        given = [RefinementInput.model_validate(r) for r in inputs.get("refinements", [])]
+        refinements = checked_refinements(
+            given, planar, parsed.region.n_vertices, 10**9, "/refinements"
+        )
+        return {
+            "parts": parsed.parts,
+            "coordinates": "wgs84" if wgs84 else "planar",
+            "tagging": stored_tagging(boundary, parsed, ""),
+            "refinements": refinements,
+            "constraints": checked_constraints(
+                inputs.get("constraints"), parsed.region, planar, "/constraints"
+            ),
+        }
+    except Problem as exc:
+        raise ValueError(f"{exc.pointer}: {exc.detail}") from None

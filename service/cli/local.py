@@ -13,9 +13,12 @@ import numpy as np
 import engine
 from engine import EngineError, PipelineParams, SizingParams, SmoothingParams
 
+from ..control import local_payload, refinements_of
+from ..control import run_mesh as run_engine
 from ..document import cell_data, mesh_from_document, result_document
 from ..formats import EXTENSIONS, FORMATS, StoredResult
 from ..geojson import BoundaryInputError, parse_region
+from .control_flags import add_control_flags, control_inputs
 from .files import output_format, read_mesh, say, write_output
 from .progress import StageBar
 
@@ -108,6 +111,7 @@ def register(sub: Any) -> None:
     p.add_argument("--size-min", type=_positive(float))
     p.add_argument("--size-max", type=_positive(float))
     p.add_argument("--wgs84", action="store_true", help="coordinates are lon/lat")
+    add_control_flags(p)
     _add_smoothing_flags(p, "--smooth")
     _add_output_flags(p)
     p.set_defaults(handler=run_mesh)
@@ -154,20 +158,27 @@ def _write(doc: dict[str, Any], args: argparse.Namespace) -> None:
 
 def run_mesh(args: argparse.Namespace) -> int:
     output_format(args.output, args.format)  # a bad name fails before the meshing
-    parsed = parse_region(_read_json(args.region), wgs84=args.wgs84)
+    boundary = _read_json(args.region)
+    parsed = parse_region(boundary, wgs84=args.wgs84)
     size = args.size if args.size is not None else parsed.properties.get("h")
     if size is None:
         raise ValueError("no --size given and the input has no 'h' property")
+    payload = local_payload(boundary, parsed, control_inputs(args), args.wgs84)
     params = PipelineParams(
-        sizing=SizingParams(float(size), args.growth, args.size_min, args.size_max),
+        sizing=SizingParams(
+            float(size),
+            args.growth,
+            args.size_min,
+            args.size_max,
+            refinements_of(payload["refinements"]),
+        ),
         swap=not args.no_swap,
         smoothing=_smoothing(args),
     )
     with StageBar() as progress:  # a bar on a terminal, once the run takes a while
-        result = engine.mesh_then_smooth(
-            parsed.region, params, np.random.default_rng(args.seed), progress=progress
-        )
-        doc = result_document(result, parsed.to_lonlat)
+        rng = np.random.default_rng(args.seed)
+        result, tags = run_engine(payload, parsed.region, params, rng, progress, lambda: False)
+        doc = result_document(result, parsed.to_lonlat, tags=tags)
         doc["summary"]["parameters"]["seed"] = args.seed
         progress("write", 0.0)
         _write(doc, args)
