@@ -7,6 +7,7 @@ Kept apart from :mod:`service.processes` and :mod:`service.jobs.runners` so thos
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -21,7 +22,7 @@ from engine.refinement import InvalidRefinement
 from engine.sizing import build_size_field
 
 from .boundary_tags import region_name, tag_runs
-from .geojson import ParsedRegion, project_wgs84
+from .geojson import ParsedRegion, build_region, parse_region, project_wgs84
 from .inputs import RefinementInput
 from .problems import Problem
 
@@ -29,10 +30,13 @@ __all__ = [
     "checked_constraints",
     "checked_refinements",
     "estimate_or_refuse",
+    "estimate_subdomains",
+    "job_region",
     "local_payload",
     "refinements_of",
     "run_mesh",
     "stored_tagging",
+    "subdomains_of",
     "tagging_of",
 ]
 
@@ -172,7 +176,12 @@ def checked_constraints(obj: Any, region: engine.Region, planar: bool, at: str) 
     if obj is None:
         return {"geometries": [], "names": []}
     if not planar:
-        raise Problem(422, "constraints need planar coordinates", kind="invalid-input", pointer=at)
+        raise Problem(
+            422,
+            "constraints need planar coordinates and one region (no subdomains)",
+            kind="invalid-input",
+            pointer=at,
+        )
     if isinstance(obj, dict) and obj.get("type") == "FeatureCollection":
         feats = obj.get("features")
         items = [
@@ -215,7 +224,11 @@ def run_mesh(
 ) -> tuple[engine.Result, engine.MeshTags]:
     """A ``mesh`` job's engine run, with its constraints when it has some, and its tags."""
     constraints = payload.get("constraints") or {}
-    if constraints.get("geometries"):
+    if payload.get("subdomains"):
+        sub = engine.mesh_subdomains(payload["parts"], params, payload["subdomains"]["sizes"], rng)
+        result, region = sub.result, sub.region
+        lines, pinned = {}, np.empty(0, dtype=np.int64)
+    elif constraints.get("geometries"):
         out = engine.mesh_with_constraints(region, params, constraints["geometries"], rng)
         lines, pinned = out.lines(constraints["names"]), out.nodes
         result = out.result
@@ -253,3 +266,82 @@ def local_payload(
         }
     except Problem as exc:
         raise ValueError(f"{exc.pointer}: {exc.detail}") from None
+
+
+def _pieces(boundary: Any, at: str) -> list[tuple[Any, str, Any]]:
+    """(polygon input, its pointer, its ``h``) of each polygon a subdomain boundary lists."""
+    if isinstance(boundary, dict) and boundary.get("type") == "FeatureCollection":
+        return [
+            (f, f"{at}/features/{i}", (f.get("properties") or {}).get("h"))
+            for i, f in enumerate(boundary.get("features") or [])
+        ]
+    h = None
+    if isinstance(boundary, dict) and boundary.get("type") == "Feature":
+        h = (boundary.get("properties") or {}).get("h")
+        boundary, at = boundary.get("geometry"), f"{at}/geometry"
+    if isinstance(boundary, dict) and boundary.get("type") == "MultiPolygon":
+        coords = boundary.get("coordinates") or []
+        return [
+            ({"type": "Polygon", "coordinates": c}, f"{at}/coordinates/{k}", h)
+            for k, c in enumerate(coords)
+        ]
+    return []
+
+
+def subdomains_of(
+    boundary: Any, at: str, wgs84: bool, error: engine.InvalidBoundary
+) -> tuple[ParsedRegion, list[float | None]]:
+    """``boundary`` as subdomains (polygons sharing edges, interiors apart) and each one's own
+    ``h``; re-raises ``error`` (the whole region's) when it is not that case, and a located
+    422 for polygons that overlap."""
+    pieces = _pieces(boundary, at)
+    if wgs84 or len(pieces) < 2:
+        raise error
+    parsed = [parse_region(obj, pointer=ptr) for obj, ptr, _ in pieces]
+    shapes = [p.region.to_shapely() for p in parsed]
+    shared = False
+    for j in range(len(shapes)):
+        for i in range(j):
+            common = shapes[i].intersection(shapes[j])
+            if common.area > 1e-9 * min(shapes[i].area, shapes[j].area):
+                raise Problem(
+                    422,
+                    f"polygon {j} overlaps polygon {i}: subdomains may share edges only",
+                    kind="invalid-boundary",
+                    pointer=pieces[j][1],
+                )
+            shared = shared or common.length > 0
+    if not shared:
+        raise error
+    hs = [
+        float(h) if isinstance(h, int | float) and not isinstance(h, bool) and h > 0 else None
+        for _, _, h in pieces
+    ]
+    region = engine.Region(tuple(part for p in parsed for part in p.region.parts))
+    whole = ParsedRegion(
+        region,
+        [part for p in parsed for part in p.parts],
+        tuple(ptrs for p in parsed for ptrs in p.ring_pointers),
+        parsed[0].properties,
+    )
+    return whole, hs
+
+
+def estimate_subdomains(
+    parsed: ParsedRegion, sizes: list[float | None], sizing: engine.SizingParams, cap: int, at: str
+) -> int:
+    """The triangles the subdomains expect, each part at its own size (the job's when none)."""
+    total = 0
+    for part, h in zip(parsed.region.parts, sizes, strict=True):
+        own = replace(sizing, size=h or sizing.size)
+        total += estimate_or_refuse(engine.Region((part,)), own, max(1, cap - total), at)
+    return total
+
+
+def job_region(payload: dict[str, Any]) -> tuple[engine.Region, Any]:
+    """A job's region and inverse projection; subdomains' parts are put together unchecked
+    (they touch, which :func:`engine.make_region` refuses) as :func:`run_mesh` nodes them."""
+    if payload.get("subdomains"):
+        parts = [engine.make_region([part]).parts[0] for part in payload["parts"]]
+        return engine.Region(tuple(parts)), None
+    return build_region(payload["parts"], wgs84=payload.get("coordinates") == "wgs84")

@@ -22,8 +22,10 @@ from .control import (
     checked_constraints,
     checked_refinements,
     estimate_or_refuse,
+    estimate_subdomains,
     refinements_of,
     stored_tagging,
+    subdomains_of,
 )
 from .document import mesh_from_document
 from .geojson import BoundaryInputError, ParsedRegion, parse_region
@@ -248,10 +250,13 @@ def _prepare_mesh(inputs: MeshInputs, settings: Settings, where: Where) -> Prepa
     at = where("boundary")
     _limit(rings, settings.max_rings, "the number of rings", at)
     _limit(vertices, settings.max_vertices, "the number of boundary vertices", at)
+    sizes: list[float | None] | None = None  # subdomains: each polygon's own size
     try:
         parsed = parse_region(inputs.boundary, pointer=at, wgs84=inputs.coordinates == "wgs84")
-    except (BoundaryInputError, engine.InvalidBoundary):
+    except BoundaryInputError:
         raise
+    except engine.InvalidBoundary as exc:  # polygons sharing edges are subdomains
+        parsed, sizes = subdomains_of(inputs.boundary, at, inputs.coordinates == "wgs84", exc)
     except (TypeError, ValueError, ArithmeticError) as exc:
         # Input the parser did not foresee: still the input's fault, never a server error.
         raise Problem(
@@ -279,7 +284,12 @@ def _prepare_mesh(inputs: MeshInputs, settings: Settings, where: Where) -> Prepa
     )
     sizing = replace(sizing, refinements=refinements_of(refinements))
     smoothing = _smoothing(inputs.smoothing, where)
-    triangles = estimate_or_refuse(parsed.region, sizing, settings.max_triangles, where("size"))
+    if sizes is None:
+        triangles = estimate_or_refuse(parsed.region, sizing, settings.max_triangles, where("size"))
+    else:
+        triangles = estimate_subdomains(
+            parsed, sizes, sizing, settings.max_triangles, where("size")
+        )
     _ga_work(smoothing, triangles, settings, where)
     # What the job keeps and the worker gets: the rings as floats and the resolved parameters,
     # never the client's JSON (whose foreign members may be anything).
@@ -296,8 +306,12 @@ def _prepare_mesh(inputs: MeshInputs, settings: Settings, where: Where) -> Prepa
         "tagging": stored_tagging(inputs.boundary, parsed, at),
         "refinements": refinements,
         "constraints": checked_constraints(
-            inputs.constraints, parsed.region, inputs.coordinates == "planar", where("constraints")
+            inputs.constraints,
+            parsed.region,
+            inputs.coordinates == "planar" and sizes is None,
+            where("constraints"),
         ),
+        "subdomains": None if sizes is None else {"sizes": sizes},
     }
     return Prepared(resolved, smoothing["seed"], triangles)
 

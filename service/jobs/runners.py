@@ -18,9 +18,8 @@ import orjson
 import engine
 from engine import EngineError, PipelineParams, SizingParams, SmoothingParams
 
-from ..control import refinements_of, run_mesh
+from ..control import job_region, refinements_of, run_mesh
 from ..document import cell_data, mesh_from_document, result_document
-from ..geojson import build_region
 from .backend import ProgressCallback, TaskError
 
 __all__ = ["mesh", "pack", "quality", "smooth", "unpack"]
@@ -74,9 +73,7 @@ def mesh(
     """The ``mesh`` process: boundary -> mesh -> swap -> smooth."""
     started = time.perf_counter()
     try:
-        region, to_lonlat = build_region(
-            payload["parts"], wgs84=payload.get("coordinates") == "wgs84"
-        )
+        region, to_lonlat = job_region(payload)
         smoothing, seed = smoothing_params(payload["smoothing"])
         params = PipelineParams(
             SizingParams(

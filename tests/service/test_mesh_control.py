@@ -240,3 +240,56 @@ async def test_a_constraint_outside_the_region_is_a_located_422(client: httpx.As
         client, {"boundary": SQUARE, "size": 0.1, "smoothing": NONE, "constraints": SQUARE}
     )
     assert_problem(r, 422, "invalid-input", "/inputs/constraints")
+
+
+def _pair(h_right: float | None, shift: float = 1.0) -> dict[str, Any]:
+    left = [[0, 0], [1, 0], [1, 1], [0, 1], [0, 0]]
+    right = [[shift, 0], [shift + 1, 0], [shift + 1, 1], [shift, 1], [shift, 0]]
+    props: dict[str, Any] = {"name": "b"} if h_right is None else {"name": "b", "h": h_right}
+    return {
+        "type": "FeatureCollection",
+        "features": [
+            {
+                "type": "Feature",
+                "properties": {"name": "a"},
+                "geometry": {"type": "Polygon", "coordinates": [left]},
+            },
+            {
+                "type": "Feature",
+                "properties": props,
+                "geometry": {"type": "Polygon", "coordinates": [right]},
+            },
+        ],
+    }
+
+
+def test_admission_estimates_subdomains_at_their_own_sizes() -> None:
+    from service.processes import PROCESSES, inputs_at
+    from service.settings import Settings
+
+    def estimate(boundary: dict[str, Any]) -> int:
+        model = PROCESSES["mesh"].inputs_model.model_validate(
+            {"boundary": boundary, "size": 0.25, "smoothing": NONE}
+        )
+        settings = Settings(_env_file=None)  # type: ignore[call-arg]
+        return PROCESSES["mesh"].prepare(model, settings, inputs_at("/inputs")).triangles
+
+    assert estimate(_pair(0.05)) > 5 * estimate(_pair(None))
+
+
+async def test_polygons_sharing_an_edge_are_meshed_as_subdomains(client: httpx.AsyncClient) -> None:
+    doc = await _result(client, {"boundary": _pair(0.1), "size": 0.25, "smoothing": NONE})
+    assert doc["regions"] == {"a": 1, "b": 2}
+    assert {"a/outer", "b/outer", "a|b"} <= set(doc["tags"])
+    region = np.asarray(doc["cell_data"]["region"])
+    assert (region == 2).sum() > 1.5 * (region == 1).sum()  # b at its own, smaller h
+    pts = np.asarray(doc["points"])
+    shared = np.asarray(doc["lines"])[np.asarray(doc["line_data"]["tag"]) == doc["tags"]["a|b"]]
+    assert np.allclose(pts[shared][..., 0], 1.0)
+
+
+async def test_overlapping_polygons_stay_a_located_422(client: httpx.AsyncClient) -> None:
+    r = await _execute(
+        client, {"boundary": _pair(None, shift=0.5), "size": 0.25, "smoothing": NONE}
+    )
+    assert_problem(r, 422, pointer="/inputs/boundary/features/1")
