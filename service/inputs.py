@@ -166,7 +166,13 @@ class RefinementInput(BaseModel):
 
 
 class MeshInputs(BaseModel):
-    """Inputs of the ``mesh`` process."""
+    """Inputs of the ``mesh`` process.
+
+    Every result is tagged: boundary edges by ring (``outer``, ``hole-k``, prefixed with the
+    Feature's ``properties.name``) and by the runs its ``properties.tags`` names, triangles by
+    region. A FeatureCollection or MultiPolygon whose polygons share edges is meshed as
+    subdomains, each at its own ``h``. ``refinements`` and ``constraints`` are documented below.
+    """
 
     model_config = _STRICT
 

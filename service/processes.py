@@ -389,7 +389,9 @@ PROCESSES: dict[str, Process] = {
             title="Mesh a region",
             description=(
                 "Mesh a planar region with holes by advancing front, swap diagonals, then smooth "
-                "interior nodes (genetic algorithm by default)."
+                "interior nodes (genetic algorithm by default). Boundaries and regions are "
+                "tagged (properties.name, properties.tags); polygons sharing edges are meshed as "
+                "subdomains; refinements and constraints control sizes and keep lines and points."
             ),
             inputs_model=MeshInputs,
             execute_model=MeshExecute,
