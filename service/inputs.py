@@ -24,6 +24,7 @@ __all__ = [
     "MeshInputs",
     "QualityExecute",
     "QualityInputs",
+    "RefinementInput",
     "SmoothExecute",
     "SmoothInputs",
     "SmoothingInput",
@@ -163,8 +164,29 @@ class SmoothingInput(BaseModel):
 _SIZING = SizingParams(size=1.0)
 
 
+#: The most refinements a ``mesh`` request may list.
+MAX_REFINEMENTS = 1000
+
+
+class RefinementInput(BaseModel):
+    """A local size: ``size`` on and near ``geometry``."""
+
+    model_config = _STRICT
+
+    geometry: dict[str, Any] = Field(
+        description="a GeoJSON Point, LineString, Polygon, their Multi* forms or a collection"
+    )
+    size: float = Field(gt=0, description="the edge length asked for on the geometry")
+
+
 class MeshInputs(BaseModel):
-    """Inputs of the ``mesh`` process."""
+    """Inputs of the ``mesh`` process.
+
+    Every result is tagged: boundary edges by ring (``outer``, ``hole-k``, prefixed with the
+    Feature's ``properties.name``) and by the runs its ``properties.tags`` names, triangles by
+    region. A FeatureCollection or MultiPolygon whose polygons share edges is meshed as
+    subdomains, each at its own ``h``. ``refinements`` and ``constraints`` are documented below.
+    """
 
     model_config = _STRICT
 
@@ -193,6 +215,24 @@ class MeshInputs(BaseModel):
     size_max: float | None = Field(None, gt=0, description="upper clamp of the local size")
     swap: bool = Field(True, description="improve connectivity by diagonal swapping")
     smoothing: SmoothingInput = Field(default_factory=SmoothingInput)
+    refinements: list[RefinementInput] = Field(
+        default_factory=list,
+        max_length=MAX_REFINEMENTS,
+        description=(
+            "local sizes: the size near each geometry is its `size`, growing away from it at"
+            " `growth` (inside a Polygon: `size`); combined with the region's sizing by the"
+            " minimum. Coordinates as the boundary's (planar only); their vertices count"
+            " against the boundary-vertex limit"
+        ),
+    )
+    constraints: Any = Field(
+        None,
+        description=(
+            "a GeoJSON geometry or FeatureCollection of (Multi)LineStrings and (Multi)Points"
+            " inside the region: lines become chains of mesh edges tagged with their Feature's"
+            " `name`, points become mesh nodes; neither moves nor is swapped away (planar only)"
+        ),
+    )
 
 
 Index = Annotated[int, Field(ge=0, le=2**31 - 1)]

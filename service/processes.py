@@ -11,13 +11,22 @@ from __future__ import annotations
 import math
 import secrets
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 from pydantic import BaseModel
 
 import engine
 
+from .control import (
+    checked_constraints,
+    checked_refinements,
+    estimate_or_refuse,
+    estimate_subdomains,
+    refinements_of,
+    stored_tagging,
+    subdomains_of,
+)
 from .document import mesh_from_document
 from .geo import GeoError, UnknownCRS
 from .geojson import BoundaryInputError, ParsedRegion, parse_region, region_crs
@@ -123,9 +132,12 @@ def count_rings(obj: Any, limit: int = 10**9) -> tuple[int, int]:
     return rings, positions
 
 
-def estimate_mesh(region: engine.Region, sizing: engine.SizingParams) -> int:
+def estimate_mesh(
+    region: engine.Region, sizing: engine.SizingParams, cap: int | None = None
+) -> int:
     """Triangles the engine expects for ``region`` at ``sizing``: the engine's own estimator
-    (the one the worker checks again), so admission and the engine cannot disagree.
+    (the one the worker checks again), so admission and the engine cannot disagree; counting
+    stops past ``cap`` (then the result only says the count is over it).
 
     >>> square = engine.make_region([([[0, 0], [1, 0], [1, 1], [0, 1]], [])])
     >>> estimate_mesh(square, engine.SizingParams(size=0.1))
@@ -133,7 +145,7 @@ def estimate_mesh(region: engine.Region, sizing: engine.SizingParams) -> int:
     """
     from engine.sizing import build_size_field
 
-    return int(engine.estimate_triangles(region, build_size_field(region, sizing)))
+    return int(engine.estimate_triangles(region, build_size_field(region, sizing), cap=cap))
 
 
 def _smoothing(smoothing: SmoothingInput, where: Where) -> dict[str, Any]:
@@ -261,7 +273,18 @@ def _prepare_mesh(inputs: MeshInputs, settings: Settings, where: Where) -> Prepa
     at = where("boundary")
     _limit(rings, settings.max_rings, "the number of rings", at)
     _limit(vertices, settings.max_vertices, "the number of boundary vertices", at)
-    parsed = _parse(inputs, where)
+    sizes: list[float | None] | None = None  # subdomains: each polygon's own size
+    try:
+        parsed = _parse(inputs, where)
+    except engine.InvalidBoundary as exc:  # polygons sharing edges are subdomains
+        try:
+            has_crs = region_crs(inputs.boundary, inputs.crs, inputs.coordinates) is not None
+        except GeoError:
+            has_crs = True
+        parsed, sizes = subdomains_of(inputs.boundary, at, has_crs, exc)
+    # Refinements, constraints and named runs of a ring are given in the coordinates that are
+    # meshed: planar input, or a projected CRS (meshed in its own coordinates).
+    geographic = parsed.projection is not None and parsed.projection.geographic
     size = inputs.size
     if size is None:
         h = parsed.properties.get("h")
@@ -275,11 +298,32 @@ def _prepare_mesh(inputs: MeshInputs, settings: Settings, where: Where) -> Prepa
         size = float(h)
     lengths = {"size": size, "size_min": inputs.size_min, "size_max": inputs.size_max}
     sizing = _sizing(parsed, lengths, inputs.growth, where)
+    refinements = checked_refinements(
+        inputs.refinements,
+        not geographic,
+        parsed.region.n_vertices,
+        settings.max_vertices,
+        where("refinements"),
+    )
+    sizing = replace(sizing, refinements=refinements_of(refinements))
     smoothing = _smoothing(inputs.smoothing, where)
-    triangles = estimate_mesh(parsed.region, sizing)
-    _limit(triangles, settings.max_triangles, "the estimated number of triangles", where("size"))
+    if sizes is None:
+        triangles = estimate_or_refuse(parsed.region, sizing, settings.max_triangles, where("size"))
+    else:
+        triangles = estimate_subdomains(
+            parsed, sizes, sizing, settings.max_triangles, where("size")
+        )
     _ga_work(smoothing, triangles, settings, where)
-    if parsed.projection is not None and parsed.projection.geographic:
+    tagging = stored_tagging(inputs.boundary, parsed, at)
+    if geographic and tagging["features"]:
+        raise Problem(
+            422,
+            "named runs of a ring (properties.tags) need planar or projected coordinates; "
+            "a lon/lat boundary gets the default outer / hole-K tags",
+            kind="invalid-input",
+            pointer=at,
+        )
+    if geographic:
         # Lon/lat edges are straight in lon/lat (RFC 7946): split them at the size so the
         # meshed boundary follows them (sizes were checked first, so this stays small).
         parsed = _parse(inputs, where, densify=sizing.size)
@@ -296,6 +340,15 @@ def _prepare_mesh(inputs: MeshInputs, settings: Settings, where: Where) -> Prepa
         "swap": inputs.swap,
         "smoothing": smoothing,
         "max_triangles": triangle_cap(smoothing, settings),
+        "tagging": tagging,
+        "refinements": refinements,
+        "constraints": checked_constraints(
+            inputs.constraints,
+            parsed.region,
+            not geographic and sizes is None,
+            where("constraints"),
+        ),
+        "subdomains": None if sizes is None else {"sizes": sizes},
     }
     return Prepared(resolved, smoothing["seed"], triangles)
 
@@ -382,7 +435,9 @@ PROCESSES: dict[str, Process] = {
             title="Mesh a region",
             description=(
                 "Mesh a planar region with holes by advancing front, swap diagonals, then smooth "
-                "interior nodes (genetic algorithm by default)."
+                "interior nodes (genetic algorithm by default). Boundaries and regions are "
+                "tagged (properties.name, properties.tags); polygons sharing edges are meshed as "
+                "subdomains; refinements and constraints control sizes and keep lines and points."
             ),
             inputs_model=MeshInputs,
             execute_model=MeshExecute,

@@ -16,6 +16,7 @@ from typing import Any
 from ..client import DEFAULT_URL, Client, Job, Status
 from ..formats import EXTENSIONS
 from ..inputs import SmoothingInput
+from .control_flags import add_control_flags, control_inputs
 from .files import STDIO, output_format, say, write_output
 from .model_flags import GA_FLAGS, add_model_flags
 from .progress import is_terminal, make_progress, stage_label
@@ -44,6 +45,7 @@ def mesh_flags(p: argparse.ArgumentParser) -> None:
     g.add_argument("--no-swap", action="store_true", help="skip diagonal swapping")
     g.add_argument("--seed", type=int, help="random seed (default: the service picks one)")
     g.add_argument("--wgs84", action="store_true", help="coordinates are lon/lat")
+    add_control_flags(g)
     g.add_argument(
         "--crs", help="CRS of the region (EPSG:4326, EPSG:32633...); sizes in metres for lon/lat"
     )
@@ -141,7 +143,7 @@ def _set(inputs: dict[str, Any], dotted: str, value: Any) -> None:
 
 def shared_inputs(args: argparse.Namespace) -> dict[str, Any]:
     """The mesh inputs given by flags (those left out are the service's defaults)."""
-    inputs: dict[str, Any] = {}
+    inputs: dict[str, Any] = control_inputs(args)
     for name in ("size", "growth"):
         if getattr(args, name) is not None:
             inputs[name] = getattr(args, name)

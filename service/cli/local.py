@@ -13,11 +13,14 @@ import numpy as np
 import engine
 from engine import EngineError, PipelineParams, SizingParams, SmoothingParams
 
+from ..control import local_payload, refinements_of
+from ..control import run_mesh as run_engine
 from ..document import cell_data, mesh_from_document, result_document
 from ..formats import EXTENSIONS, FORMATS, StoredResult
 from ..geo import read_region_file
 from ..geojson import BoundaryInputError, parse_region, region_crs
 from ..inputs import SmoothingInput
+from .control_flags import add_control_flags, control_inputs
 from .files import output_format, read_mesh, say, write_output
 from .model_flags import GA_FLAGS, add_model_flags, model_values
 from .progress import StageBar
@@ -101,6 +104,7 @@ def register(sub: Any) -> None:
     p.add_argument("--size-min", type=_positive(float))
     p.add_argument("--size-max", type=_positive(float))
     p.add_argument("--wgs84", action="store_true", help="coordinates are lon/lat (--crs OGC:CRS84)")
+    add_control_flags(p)
     _add_smoothing_flags(p, "--smooth")
     _add_output_flags(p)
     p.set_defaults(handler=run_mesh)
@@ -149,16 +153,22 @@ def run_mesh(args: argparse.Namespace) -> int:
         raise ValueError("no --size given and the input has no 'h' property")
     if parsed.projection is not None and parsed.projection.geographic:
         parsed = parse_region(boundary, crs=crs, densify=float(size))  # follow lon/lat edges
+    payload = local_payload(boundary, parsed, control_inputs(args))
     params = PipelineParams(
-        sizing=SizingParams(float(size), args.growth, args.size_min, args.size_max),
+        sizing=SizingParams(
+            float(size),
+            args.growth,
+            args.size_min,
+            args.size_max,
+            refinements_of(payload["refinements"]),
+        ),
         swap=not args.no_swap,
         smoothing=_smoothing(args),
     )
     with StageBar() as progress:  # a bar on a terminal, once the run takes a while
-        result = engine.mesh_then_smooth(
-            parsed.region, params, np.random.default_rng(args.seed), progress=progress
-        )
-        doc = result_document(result, parsed.crs())
+        rng = np.random.default_rng(args.seed)
+        result, tags = run_engine(payload, parsed.region, params, rng, progress, lambda: False)
+        doc = result_document(result, parsed.crs(), tags=tags)
         doc["summary"]["parameters"]["seed"] = args.seed
         progress("write", 0.0)
         _write(doc, args)

@@ -19,9 +19,8 @@ import engine
 from engine import EngineError, PipelineParams, SizingParams, SmoothingParams
 from engine.pipeline import STAGE_WEIGHTS, job_progress
 
+from ..control import job_region, refinements_of, run_mesh
 from ..document import cell_data, mesh_from_document, result_document
-from ..geo import project_rings
-from ..geojson import build_region
 from .backend import ProgressCallback, TaskError
 
 __all__ = ["mesh", "pack", "quality", "smooth", "unpack"]
@@ -76,14 +75,7 @@ def mesh(
     """The ``mesh`` process: boundary -> mesh -> swap -> smooth."""
     started = time.perf_counter()
     try:
-        # The rings are in the meshing plane already (admission projected them), except in
-        # jobs stored before the crs input: lon/lat rings under coordinates "wgs84".
-        parts, crs = payload["parts"], payload.get("crs")
-        if crs is None and payload.get("coordinates") == "wgs84":
-            projection = project_rings(parts, "OGC:CRS84")
-            parts = [(o.tolist(), [h.tolist() for h in hs]) for o, hs in projection.parts]
-            crs = projection.describe()
-        region = build_region(parts)
+        region, crs = job_region(payload)
         smoothing, seed = smoothing_params(payload["smoothing"])
         params = PipelineParams(
             SizingParams(
@@ -91,6 +83,7 @@ def mesh(
                 float(payload["growth"]),
                 payload.get("size_min"),
                 payload.get("size_max"),
+                refinements_of(payload.get("refinements", [])),
             ),
             swap=bool(payload["swap"]),
             # The service's limits (max_triangles, and the GA work as triangles) on the real
@@ -98,18 +91,19 @@ def mesh(
             max_triangles=int(payload["max_triangles"]),
             smoothing=smoothing,
         )
-        result = engine.mesh_then_smooth(
+        result, tags = run_mesh(
+            payload,
             region,
             params,
             np.random.default_rng(seed),
-            progress=_job_progress(progress, smoothing),
-            should_stop=should_stop,
+            _job_progress(progress, smoothing),
+            should_stop,
         )
     except (EngineError, ValueError, KeyError) as exc:
         if isinstance(exc, engine.Cancelled):
             raise
         raise TaskError(str(exc)) from exc
-    doc = result_document(result, crs)
+    doc = result_document(result, crs, tags=tags)
     doc["summary"]["parameters"]["seed"] = seed
     return pack(doc), _figures(result, started)
 

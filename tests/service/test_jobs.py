@@ -73,7 +73,10 @@ async def test_results_in_every_format(client: httpx.AsyncClient) -> None:
     assert gj.headers["content-type"].startswith("application/geo+json")
     fc = gj.json()
     assert fc["type"] == "FeatureCollection"
-    assert len(fc["features"]) == n_tri
+    # The triangles, then the tagged boundary lines (every mesh job is tagged).
+    kinds = [f["geometry"]["type"] for f in fc["features"]]
+    assert kinds.count("Polygon") == n_tri
+    assert kinds.count("LineString") == len(doc["lines"])
     first = fc["features"][0]
     assert first["geometry"]["type"] == "Polygon"
     assert len(first["geometry"]["coordinates"][0]) == 4

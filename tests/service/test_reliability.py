@@ -133,9 +133,11 @@ async def test_the_stored_input_is_the_normalised_region_not_the_request(
     stored = store.inputs(job["jobID"])
     assert set(stored) == {
         "parts", "crs", "size", "growth", "size_min", "size_max", "swap", "smoothing",
-        "max_triangles",
+        "max_triangles", "tagging", "refinements", "constraints", "subdomains",
     }  # fmt: skip
     assert stored["crs"] is None  # planar: no CRS to map back
+    # The tagging is plain data (names and runs), never the Feature's other members.
+    assert stored["tagging"] == {"names": [None], "features": []}
     assert stored["parts"] == [[[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]], []]]
     assert stored["size"] == 0.5
     assert (await wait_for(client, job["jobID"]))["status"] == "successful"

@@ -1,0 +1,357 @@
+"""Mesh control at admission and in the worker: the size-field estimate with its limits, and
+the boundary tags of a job (region names and tag runs) as plain JSON and as engine objects.
+
+Kept apart from :mod:`service.processes` and :mod:`service.jobs.runners` so those only call in.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+import orjson
+import shapely
+from shapely.geometry import mapping
+
+import engine
+from engine.constraints import _check_inside as check_inside
+from engine.constraints import _geometries as constraint_geometries
+from engine.refinement import InvalidRefinement
+from engine.sizing import build_size_field
+
+from .boundary_tags import region_name, tag_runs
+from .geo import project_rings
+from .geojson import ParsedRegion, build_region, parse_region
+from .inputs import RefinementInput
+from .problems import Problem
+
+__all__ = [
+    "checked_constraints",
+    "checked_refinements",
+    "estimate_or_refuse",
+    "estimate_subdomains",
+    "job_region",
+    "local_payload",
+    "refinements_of",
+    "run_mesh",
+    "stored_tagging",
+    "subdomains_of",
+    "tagging_of",
+]
+
+#: Share of boundary segments shorter than the size past which a refusal explains that every
+#: boundary vertex is kept (the boundary, not the area, then drives the triangle count).
+_DENSE_SHARE = 0.5
+
+
+def _short_share(region: engine.Region, size: float) -> float:
+    """The share of boundary segments shorter than ``size``."""
+    lengths = np.concatenate([np.hypot(*(np.roll(r, -1, axis=0) - r).T) for r in region.rings])
+    return float(np.mean(lengths < size)) if len(lengths) else 0.0
+
+
+def estimate_or_refuse(
+    region: engine.Region, sizing: engine.SizingParams, cap: int, pointer: str
+) -> int:
+    """The engine's triangle estimate, counting stopped past ``cap``; a 422 ``Problem`` at
+    ``pointer`` when the size field cannot be built (too many gap samples) or the estimate is
+    over ``cap`` (saying why when the boundary's vertices, closer than the size, drive it)."""
+    try:
+        field = build_size_field(region, sizing)
+    except engine.LimitExceeded as exc:
+        raise Problem(
+            422, str(exc), kind="limit-exceeded", title="Input over a limit", pointer=pointer
+        ) from None
+    triangles = int(engine.estimate_triangles(region, field, cap=cap))
+    if triangles > cap:
+        detail = (
+            f"the estimated number of triangles is over {triangles:,}, over the limit of {cap:,}"
+        )
+        if _short_share(region, sizing.size) > _DENSE_SHARE:
+            detail += (
+                f"; most of the boundary's {region.n_vertices:,} vertices are closer together"
+                " than the size, and every boundary vertex is kept as a mesh node: use a larger"
+                " size or simplify the boundary"
+            )
+        raise Problem(
+            422, detail, kind="limit-exceeded", title="Input over a limit", pointer=pointer
+        )
+    return triangles
+
+
+def _features(
+    boundary: Any, parts: int, pointers: Any, at: str
+) -> list[tuple[dict[str, Any], int, int, str]]:
+    """(properties, first part, end part, pointer) of each Feature of ``boundary``; one entry
+    without properties when it is a bare geometry."""
+    if isinstance(boundary, dict) and boundary.get("type") == "Feature":
+        props = boundary.get("properties") or {}
+        return [(props, 0, parts, at)]
+    if isinstance(boundary, dict) and boundary.get("type") == "FeatureCollection":
+        out = []
+        start = 0
+        for i, feat in enumerate(boundary["features"]):
+            ptr = f"{at}/features/{i}"
+            stop = start
+            while stop < parts and pointers[stop][0].startswith(f"{ptr}/"):
+                stop += 1
+            out.append(
+                ((feat.get("properties") or {}) if isinstance(feat, dict) else {}, start, stop, ptr)
+            )
+            start = stop
+        return out
+    return [({}, 0, parts, at)]
+
+
+def stored_tagging(boundary: Any, parsed: ParsedRegion, at: str) -> dict[str, Any]:
+    """The tagging a job keeps (plain JSON): each part's region name and each Feature's tag
+    runs, checked now so a bad run is a 422 pointing at it."""
+    names: list[str | None] = []
+    features = []
+    for props, start, stop, ptr in _features(boundary, len(parsed.parts), parsed.ring_pointers, at):
+        name = region_name(props)
+        # A MultiPolygon Feature's polygons are regions of their own: "name", "name-1", ...
+        names += [name if k == 0 or name is None else f"{name}-{k}" for k in range(stop - start)]
+        polygons = [[outer, *holes] for outer, holes in parsed.parts[start:stop]]
+        tag_runs(props, polygons, ptr)  # BoundaryInputError: a 422 at the faulty run
+        runs = [
+            {k: run[k] for k in ("name", "polygon", "ring", "from", "to") if k in run}
+            for run in props.get("tags", [])
+        ]
+        if runs:
+            features.append({"parts": [start, stop], "tags": runs})
+    return {"names": names, "features": features}
+
+
+def tagging_of(stored: dict[str, Any] | None, parts: Any) -> engine.Tagging:
+    """The engine's :class:`~engine.Tagging` of a job's stored tagging on ``parts`` (the rings
+    in the region's own frame, as the stored parts after any projection)."""
+    if not stored:
+        return engine.Tagging()
+    runs: list[engine.TagRun] = []
+    for feature in stored["features"]:
+        start, stop = feature["parts"]
+        polygons = [[outer, *holes] for outer, holes in parts[start:stop]]
+        runs += tag_runs({"tags": feature["tags"]}, polygons)
+    return engine.Tagging(names=stored["names"], runs=runs)
+
+
+def refinements_of(stored: Sequence[Mapping[str, Any]]) -> tuple[engine.Refinement, ...]:
+    """The engine's refinements of a job's stored ``refinements``."""
+    return tuple(engine.Refinement(r["geometry"], float(r["size"])) for r in stored)
+
+
+def checked_refinements(
+    refinements: Sequence[RefinementInput], planar: bool, vertices: int, limit: int, at: str
+) -> list[dict[str, Any]]:
+    """The refinements as a job keeps them (plain GeoJSON); a 422 at ``at/i`` for one the engine
+    refuses, and at ``at`` when their vertices and the boundary's (``vertices``) pass ``limit``."""
+    if refinements and not planar:
+        raise Problem(422, "refinements need planar coordinates", kind="invalid-input", pointer=at)
+    out = []
+    for i, r in enumerate(refinements):
+        try:
+            shape = engine.Refinement(r.geometry, r.size).shape()
+        except InvalidRefinement as exc:
+            raise Problem(422, str(exc), kind="invalid-input", pointer=f"{at}/{i}") from None
+        vertices += int(shapely.get_num_coordinates(shape))
+        if vertices > limit:
+            raise Problem(
+                422,
+                f"the boundary's and the refinements' vertices are over the limit of {limit:,}",
+                kind="limit-exceeded",
+                title="Input over a limit",
+                pointer=f"{at}/{i}",
+            )
+        # Stored as shapely writes it back: plain GeoJSON, never the client's members.
+        out.append({"geometry": orjson.loads(orjson.dumps(mapping(shape))), "size": r.size})
+    return out
+
+
+def checked_constraints(obj: Any, region: engine.Region, planar: bool, at: str) -> dict[str, Any]:
+    """The constraints as a job keeps them: ``geometries`` (plain GeoJSON) and each one's
+    ``names`` (its Feature's ``name``); a 422 at the faulty one when the engine's own checks
+    (kind of geometry, inside the region) refuse it."""
+    if obj is None:
+        return {"geometries": [], "names": []}
+    if not planar:
+        raise Problem(
+            422,
+            "constraints need planar coordinates and one region (no subdomains)",
+            kind="invalid-input",
+            pointer=at,
+        )
+    if isinstance(obj, dict) and obj.get("type") == "FeatureCollection":
+        feats = obj.get("features")
+        items = [
+            (f, f"{at}/features/{i}")
+            for i, f in enumerate(feats if isinstance(feats, list) else [])
+        ]
+    else:
+        items = [(obj, at)]
+    geoms: list[Any] = []
+    names: list[str | None] = []
+    pointers: list[str] = []
+    for item, ptr in items:
+        if isinstance(item, dict) and item.get("type") == "Feature":
+            geoms.append(item.get("geometry"))
+            props = item.get("properties")
+            names.append(region_name(props) if isinstance(props, dict) else None)
+            pointers.append(f"{ptr}/geometry")
+        else:
+            geoms.append(item)
+            names.append(None)
+            pointers.append(ptr)
+    try:
+        # The engine's own checks, cheap next to meshing: refused now, not in the worker.
+        shapes = constraint_geometries(geoms)
+        check_inside(shapes, region)
+    except engine.InvalidConstraint as exc:
+        where = pointers[exc.index] if exc.index < len(pointers) else at
+        raise Problem(422, str(exc), kind="invalid-input", pointer=where) from None
+    plain = [orjson.loads(orjson.dumps(mapping(s))) for s in shapes]
+    return {"geometries": plain, "names": names}
+
+
+def run_mesh(
+    payload: dict[str, Any],
+    region: engine.Region,
+    params: engine.PipelineParams,
+    rng: np.random.Generator,
+    progress: engine.ProgressFn,
+    should_stop: engine.StopFn,
+) -> tuple[engine.Result, engine.MeshTags]:
+    """A ``mesh`` job's engine run, with its constraints when it has some, and its tags."""
+    constraints = payload.get("constraints") or {}
+    if payload.get("subdomains"):
+        sub = engine.mesh_subdomains(payload["parts"], params, payload["subdomains"]["sizes"], rng)
+        result, region = sub.result, sub.region
+        lines, pinned = {}, np.empty(0, dtype=np.int64)
+    elif constraints.get("geometries"):
+        out = engine.mesh_with_constraints(region, params, constraints["geometries"], rng)
+        lines, pinned = out.lines(constraints["names"]), out.nodes
+        result = out.result
+    else:
+        result = engine.mesh_then_smooth(
+            region, params, rng, progress=progress, should_stop=should_stop
+        )
+        lines, pinned = {}, np.empty(0, dtype=np.int64)
+    # The stored parts are in the meshing plane; named runs are only stored for planar and
+    # projected input, whose plane keeps the input's vertices one for one.
+    tagging = tagging_of(payload.get("tagging"), payload["parts"])
+    return result, engine.tag_mesh(result.smoothed.mesh, region, tagging, lines, pinned)
+
+
+def local_payload(boundary: Any, parsed: ParsedRegion, inputs: Mapping[str, Any]) -> dict[str, Any]:
+    """What :func:`run_mesh` needs besides the parameters, for the command line: the stored
+    tagging, refinements and constraints of ``inputs``; ``ValueError`` naming the faulty one."""
+    planar = parsed.projection is None or not parsed.projection.geographic
+    try:
+        given = [RefinementInput.model_validate(r) for r in inputs.get("refinements", [])]
+        refinements = checked_refinements(
+            given, planar, parsed.region.n_vertices, 10**9, "/refinements"
+        )
+        tagging = stored_tagging(boundary, parsed, "")
+        if not planar and tagging["features"]:
+            raise ValueError(
+                "named runs of a ring (properties.tags) need planar or projected coordinates"
+            )
+        return {
+            "parts": parsed.parts,
+            "crs": parsed.crs(),
+            "tagging": tagging,
+            "refinements": refinements,
+            "constraints": checked_constraints(
+                inputs.get("constraints"), parsed.region, planar, "/constraints"
+            ),
+        }
+    except Problem as exc:
+        raise ValueError(f"{exc.pointer}: {exc.detail}") from None
+
+
+def _pieces(boundary: Any, at: str) -> list[tuple[Any, str, Any]]:
+    """(polygon input, its pointer, its ``h``) of each polygon a subdomain boundary lists."""
+    if isinstance(boundary, dict) and boundary.get("type") == "FeatureCollection":
+        return [
+            (f, f"{at}/features/{i}", (f.get("properties") or {}).get("h"))
+            for i, f in enumerate(boundary.get("features") or [])
+        ]
+    h = None
+    if isinstance(boundary, dict) and boundary.get("type") == "Feature":
+        h = (boundary.get("properties") or {}).get("h")
+        boundary, at = boundary.get("geometry"), f"{at}/geometry"
+    if isinstance(boundary, dict) and boundary.get("type") == "MultiPolygon":
+        coords = boundary.get("coordinates") or []
+        return [
+            ({"type": "Polygon", "coordinates": c}, f"{at}/coordinates/{k}", h)
+            for k, c in enumerate(coords)
+        ]
+    return []
+
+
+def subdomains_of(
+    boundary: Any, at: str, has_crs: bool, error: engine.InvalidBoundary
+) -> tuple[ParsedRegion, list[float | None]]:
+    """``boundary`` as subdomains (polygons sharing edges, interiors apart) and each one's own
+    ``h``; re-raises ``error`` (the whole region's) when it is not that case, and a located
+    422 for polygons that overlap."""
+    pieces = _pieces(boundary, at)
+    if has_crs or len(pieces) < 2:  # subdomains are meshed in planar coordinates only
+        raise error
+    parsed = [parse_region(obj, pointer=ptr) for obj, ptr, _ in pieces]
+    shapes = [p.region.to_shapely() for p in parsed]
+    shared = False
+    for j in range(len(shapes)):
+        for i in range(j):
+            common = shapes[i].intersection(shapes[j])
+            if common.area > 1e-9 * min(shapes[i].area, shapes[j].area):
+                raise Problem(
+                    422,
+                    f"polygon {j} overlaps polygon {i}: subdomains may share edges only",
+                    kind="invalid-boundary",
+                    pointer=pieces[j][1],
+                )
+            shared = shared or common.length > 0
+    if not shared:
+        raise error
+    hs = [
+        float(h) if isinstance(h, int | float) and not isinstance(h, bool) and h > 0 else None
+        for _, _, h in pieces
+    ]
+    region = engine.Region(tuple(part for p in parsed for part in p.region.parts))
+    whole = ParsedRegion(
+        region,
+        [part for p in parsed for part in p.parts],
+        tuple(ptrs for p in parsed for ptrs in p.ring_pointers),
+        parsed[0].properties,
+    )
+    return whole, hs
+
+
+def estimate_subdomains(
+    parsed: ParsedRegion, sizes: list[float | None], sizing: engine.SizingParams, cap: int, at: str
+) -> int:
+    """The triangles the subdomains expect, each part at its own size (the job's when none)."""
+    total = 0
+    for part, h in zip(parsed.region.parts, sizes, strict=True):
+        own = replace(sizing, size=h or sizing.size)
+        total += estimate_or_refuse(engine.Region((part,)), own, max(1, cap - total), at)
+    return total
+
+
+def job_region(payload: dict[str, Any]) -> tuple[engine.Region, dict[str, Any] | None]:
+    """A job's region (in its meshing plane) and its CRS facts; subdomains' parts are put
+    together unchecked (they touch, which :func:`engine.make_region` refuses) as
+    :func:`run_mesh` nodes them. Jobs stored before the ``crs`` input keep lon/lat rings under
+    ``coordinates: "wgs84"``: those are projected here."""
+    if payload.get("subdomains"):
+        parts = [engine.make_region([part]).parts[0] for part in payload["parts"]]
+        return engine.Region(tuple(parts)), None
+    crs = payload.get("crs")
+    if crs is None and payload.get("coordinates") == "wgs84":
+        projection = project_rings(payload["parts"], "OGC:CRS84")
+        payload["parts"] = [(o.tolist(), [h.tolist() for h in hs]) for o, hs in projection.parts]
+        crs = projection.describe()
+    return build_region(payload["parts"]), crs

@@ -1,0 +1,295 @@
+"""Mesh control through the API (issue 16): the admission estimate with its cap and limits,
+boundary tags and regions in every mesh job."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import httpx
+import numpy as np
+import pytest
+
+import engine
+import engine.sizing
+from service.processes import estimate_mesh
+
+from .conftest import SQUARE, ClientFactory, assert_problem, submit, wait_for
+
+pytestmark = pytest.mark.anyio
+
+NONE = {"method": "none"}
+
+
+async def _execute(client: httpx.AsyncClient, inputs: dict[str, Any]) -> httpx.Response:
+    return await client.post("/processes/mesh/execution", json={"inputs": inputs})
+
+
+@pytest.fixture
+async def limited(make_client: ClientFactory) -> httpx.AsyncClient:
+    return await make_client(max_vertices=5000, max_triangles=1000)
+
+
+def test_the_estimate_stops_counting_past_the_cap() -> None:
+    square = engine.make_region([([[0, 0], [1, 0], [1, 1], [0, 1]], [])])
+    sizing = engine.SizingParams(1e-4)  # about 2.3e8 triangles in all
+    capped = estimate_mesh(square, sizing, cap=1000)
+    assert 1000 < capped < 10**6
+
+
+async def test_admission_passes_the_triangle_limit_as_the_cap(
+    limited: httpx.AsyncClient, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    caps: list[int | None] = []
+    estimate = engine.estimate_triangles
+
+    def spy(*args: Any, cap: int | None = None, **kwargs: Any) -> int:
+        caps.append(cap)
+        return estimate(*args, cap=cap, **kwargs)
+
+    monkeypatch.setattr(engine, "estimate_triangles", spy)
+    r = await _execute(limited, {"boundary": SQUARE, "size": 1e-4, "smoothing": NONE})
+    doc = assert_problem(r, 422, "limit-exceeded", "/inputs/size")
+    assert "triangles" in doc["detail"]
+    assert caps == [1000]
+
+
+async def test_too_many_gap_samples_is_a_422_at_size(
+    limited: httpx.AsyncClient, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(engine.sizing, "MAX_GAP_SAMPLES", 10)
+    # A U whose slit is a hundredth of the size wide.
+    u = [[0, 0], [3, 0], [3, 10], [1.505, 10], [1.505, 1], [1.495, 1], [1.495, 10], [0, 10]]
+    comb = {"outer": u}
+    r = await _execute(limited, {"boundary": comb, "size": 1.0, "smoothing": NONE})
+    doc = assert_problem(r, 422, "limit-exceeded", "/inputs/size")
+    assert "gaps" in doc["detail"]
+
+
+async def test_a_dense_boundary_refusal_says_every_vertex_is_kept(
+    limited: httpx.AsyncClient,
+) -> None:
+    t = np.linspace(0, 2 * np.pi, 3000, endpoint=False)
+    circle = np.stack([np.cos(t), np.sin(t)], axis=1).tolist()
+    r = await _execute(limited, {"boundary": {"outer": circle}, "size": 0.5, "smoothing": NONE})
+    doc = assert_problem(r, 422, "limit-exceeded", "/inputs/size")
+    assert "every boundary vertex is kept" in doc["detail"]
+    assert "larger size or simplify the boundary" in doc["detail"]
+    # A sparse boundary over the limit is refused without that hint.
+    r = await _execute(limited, {"boundary": SQUARE, "size": 0.01, "smoothing": NONE})
+    assert "every boundary vertex" not in assert_problem(r, 422, "limit-exceeded")["detail"]
+
+
+DUCT = {
+    "type": "Feature",
+    "properties": {"name": "duct", "tags": [{"name": "inlet", "ring": 0, "from": 3, "to": 0}]},
+    "geometry": {
+        "type": "Polygon",
+        "coordinates": [
+            [[0, 0], [2, 0], [2, 1], [0, 1], [0, 0]],
+            [[0.8, 0.4], [0.8, 0.6], [1.2, 0.6], [1.2, 0.4], [0.8, 0.4]],
+        ],
+    },
+}
+
+
+async def test_a_mesh_job_tags_its_boundaries_and_regions(
+    client: httpx.AsyncClient, tmp_path: Any
+) -> None:
+    import meshio
+
+    job = await submit(client, "mesh", {"boundary": DUCT, "size": 0.2, "smoothing": NONE})
+    assert (await wait_for(client, job["jobID"]))["status"] == "successful"
+    doc = (await client.get(f"/jobs/{job['jobID']}/results")).json()
+    assert doc["tags"] == {"duct/outer": 1, "duct/hole-1": 2, "inlet": 3}
+    assert doc["regions"] == {"duct": 1}
+    assert set(doc["cell_data"]["region"]) == {1}
+    assert len(doc["lines"]) == len(doc["line_data"]["tag"])
+    pts = np.asarray(doc["points"])
+    inlet = np.asarray(doc["lines"])[np.asarray(doc["line_data"]["tag"]) == 3]
+    assert len(inlet) >= 5
+    assert np.allclose(pts[inlet][..., 0], 0.0)
+    r = await client.get(f"/jobs/{job['jobID']}/results", params={"f": "msh"})
+    assert r.status_code == 200, r.text
+    path = tmp_path / "duct.msh"
+    path.write_bytes(r.content)
+    groups = {k: v.tolist() for k, v in meshio.read(path).field_data.items()}
+    assert groups == {"duct/outer": [1, 1], "duct/hole-1": [2, 1], "inlet": [3, 1], "duct": [1, 2]}
+
+
+async def test_a_bad_tag_run_is_a_located_422(client: httpx.AsyncClient) -> None:
+    bad = {**DUCT, "properties": {"tags": [{"name": "inlet", "ring": 2, "from": 0, "to": 1}]}}
+    r = await _execute(client, {"boundary": bad, "size": 0.2, "smoothing": NONE})
+    assert_problem(r, 422, pointer="/inputs/boundary/properties/tags/0/ring")
+
+
+async def test_each_feature_of_a_collection_names_its_region(client: httpx.AsyncClient) -> None:
+    left = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1], [0, 0]]]}
+    right = {"type": "Polygon", "coordinates": [[[2, 0], [3, 0], [3, 1], [2, 1], [2, 0]]]}
+    runs = [{"name": "east", "from": 1, "to": 2}]
+    fc = {
+        "type": "FeatureCollection",
+        "features": [
+            {"type": "Feature", "properties": {"name": "a"}, "geometry": left},
+            {"type": "Feature", "properties": {"name": "b", "tags": runs}, "geometry": right},
+        ],
+    }
+    job = await submit(client, "mesh", {"boundary": fc, "size": 0.25, "smoothing": NONE})
+    assert (await wait_for(client, job["jobID"]))["status"] == "successful"
+    doc = (await client.get(f"/jobs/{job['jobID']}/results")).json()
+    assert doc["regions"] == {"a": 1, "b": 2}
+    assert set(doc["tags"]) == {"a/outer", "b/outer", "east"}
+    pts = np.asarray(doc["points"])
+    east = np.asarray(doc["lines"])[np.asarray(doc["line_data"]["tag"]) == doc["tags"]["east"]]
+    assert np.allclose(pts[east][..., 0], 3.0)
+
+
+async def _result(client: httpx.AsyncClient, inputs: dict[str, Any]) -> dict[str, Any]:
+    job = await submit(client, "mesh", inputs)
+    status = await wait_for(client, job["jobID"])
+    assert status["status"] == "successful", status
+    doc: dict[str, Any] = (await client.get(f"/jobs/{job['jobID']}/results")).json()
+    return doc
+
+
+async def test_a_refinement_makes_the_mesh_finer_near_it(client: httpx.AsyncClient) -> None:
+    point = {"type": "Point", "coordinates": [0.5, 0.5]}
+    plain = await _result(client, {"boundary": SQUARE, "size": 0.2, "smoothing": NONE})
+    refined = await _result(
+        client,
+        {
+            "boundary": SQUARE,
+            "size": 0.2,
+            "smoothing": NONE,
+            "refinements": [{"geometry": point, "size": 0.02}],
+        },
+    )
+    assert len(refined["triangles"]) > 3 * len(plain["triangles"])
+    pts = np.asarray(refined["points"])
+    near = np.hypot(*(pts - 0.5).T) < 0.03
+    assert near.sum() >= 5  # nodes about 0.02 apart around the point
+
+
+async def test_bad_refinements_are_located_422s(limited: httpx.AsyncClient) -> None:
+    base = {"boundary": SQUARE, "size": 0.2, "smoothing": NONE}
+    bad = [
+        {"geometry": {"type": "Point", "coordinates": [0.5, 0.5]}, "size": 0.1},
+        {"geometry": {"type": "Nowhere", "coordinates": []}, "size": 0.1},
+    ]
+    r = await _execute(limited, {**base, "refinements": bad})
+    assert_problem(r, 422, "invalid-input", "/inputs/refinements/1")
+    long = [[i / 6000, 0.5] for i in range(6000)]
+    r = await _execute(
+        limited,
+        {
+            **base,
+            "refinements": [{"geometry": {"type": "LineString", "coordinates": long}, "size": 0.1}],
+        },
+    )
+    assert_problem(r, 422, "limit-exceeded", "/inputs/refinements/0")
+    r = await _execute(limited, {**base, "refinements": [bad[0]] * 1001})
+    assert r.status_code == 422
+
+
+DAM = {"type": "LineString", "coordinates": [[0.2, 0.3], [0.8, 0.6]]}
+
+
+async def test_constraints_become_tagged_mesh_edges_and_nodes(client: httpx.AsyncClient) -> None:
+    constraints = {
+        "type": "FeatureCollection",
+        "features": [
+            {"type": "Feature", "properties": {"name": "dam"}, "geometry": DAM},
+            {
+                "type": "Feature",
+                "properties": {},
+                "geometry": {"type": "Point", "coordinates": [0.7, 0.2]},
+            },
+        ],
+    }
+    doc = await _result(
+        client,
+        {
+            "boundary": SQUARE,
+            "size": 0.1,
+            "smoothing": {"method": "laplacian"},
+            "constraints": constraints,
+        },
+    )
+    assert "dam" in doc["tags"]
+    pts = np.asarray(doc["points"])
+    dam = np.asarray(doc["lines"])[np.asarray(doc["line_data"]["tag"]) == doc["tags"]["dam"]]
+    ends = pts[dam]  # every dam edge lies on the line y = 0.3 + 0.5 (x - 0.2)
+    assert np.allclose(ends[..., 1], 0.3 + 0.5 * (ends[..., 0] - 0.2), atol=1e-9)
+    assert np.isclose(np.hypot(*(ends[:, 1] - ends[:, 0]).T).sum(), np.hypot(0.6, 0.3))
+    assert np.min(np.hypot(*(pts - [0.7, 0.2]).T)) < 1e-12  # the point is a node
+    fixed = np.asarray(doc["point_data"]["fixed"], dtype=bool)
+    assert fixed[np.unique(dam)].all()
+
+
+async def test_a_constraint_outside_the_region_is_a_located_422(client: httpx.AsyncClient) -> None:
+    out = {"type": "LineString", "coordinates": [[0.5, 0.5], [1.5, 0.5]]}
+    fc = {
+        "type": "FeatureCollection",
+        "features": [{"type": "Feature", "properties": None, "geometry": out}],
+    }
+    r = await _execute(
+        client, {"boundary": SQUARE, "size": 0.1, "smoothing": NONE, "constraints": fc}
+    )
+    doc = assert_problem(r, 422, "invalid-input", "/inputs/constraints/features/0/geometry")
+    assert "leaves the region" in doc["detail"]
+    r = await _execute(
+        client, {"boundary": SQUARE, "size": 0.1, "smoothing": NONE, "constraints": SQUARE}
+    )
+    assert_problem(r, 422, "invalid-input", "/inputs/constraints")
+
+
+def _pair(h_right: float | None, shift: float = 1.0) -> dict[str, Any]:
+    left = [[0, 0], [1, 0], [1, 1], [0, 1], [0, 0]]
+    right = [[shift, 0], [shift + 1, 0], [shift + 1, 1], [shift, 1], [shift, 0]]
+    props: dict[str, Any] = {"name": "b"} if h_right is None else {"name": "b", "h": h_right}
+    return {
+        "type": "FeatureCollection",
+        "features": [
+            {
+                "type": "Feature",
+                "properties": {"name": "a"},
+                "geometry": {"type": "Polygon", "coordinates": [left]},
+            },
+            {
+                "type": "Feature",
+                "properties": props,
+                "geometry": {"type": "Polygon", "coordinates": [right]},
+            },
+        ],
+    }
+
+
+def test_admission_estimates_subdomains_at_their_own_sizes() -> None:
+    from service.processes import PROCESSES, inputs_at
+    from service.settings import Settings
+
+    def estimate(boundary: dict[str, Any]) -> int:
+        model = PROCESSES["mesh"].inputs_model.model_validate(
+            {"boundary": boundary, "size": 0.25, "smoothing": NONE}
+        )
+        settings = Settings(_env_file=None)  # type: ignore[call-arg]
+        return PROCESSES["mesh"].prepare(model, settings, inputs_at("/inputs")).triangles
+
+    assert estimate(_pair(0.05)) > 5 * estimate(_pair(None))
+
+
+async def test_polygons_sharing_an_edge_are_meshed_as_subdomains(client: httpx.AsyncClient) -> None:
+    doc = await _result(client, {"boundary": _pair(0.1), "size": 0.25, "smoothing": NONE})
+    assert doc["regions"] == {"a": 1, "b": 2}
+    assert {"a/outer", "b/outer", "a|b"} <= set(doc["tags"])
+    region = np.asarray(doc["cell_data"]["region"])
+    assert (region == 2).sum() > 1.5 * (region == 1).sum()  # b at its own, smaller h
+    pts = np.asarray(doc["points"])
+    shared = np.asarray(doc["lines"])[np.asarray(doc["line_data"]["tag"]) == doc["tags"]["a|b"]]
+    assert np.allclose(pts[shared][..., 0], 1.0)
+
+
+async def test_overlapping_polygons_stay_a_located_422(client: httpx.AsyncClient) -> None:
+    r = await _execute(
+        client, {"boundary": _pair(None, shift=0.5), "size": 0.25, "smoothing": NONE}
+    )
+    assert_problem(r, 422, pointer="/inputs/boundary/features/1")
