@@ -26,6 +26,7 @@ const state = {
   watcher: null,
   colorBy: "quality",
   which: "after",
+  ranges: {},          // colour ranges people set, by metric: [lo, hi] (null ends: the data's)
   timings: {},         // what the last result cost the browser (ms), for people and tests
 };
 
@@ -377,6 +378,7 @@ async function openJob(job) {
 // -- showing a result ----------------------------------------------------------------------------
 
 function showJob(job) {
+  if (!job || !state.job || job.id !== state.job.id) state.ranges = {}; // a new job: its data's ranges
   state.job = job;
   if (!job) {
     view.setMesh(null);
@@ -415,7 +417,9 @@ function showMesh(fit = false) {
   const all = [job.meshes.after, job.meshes.before].filter(Boolean).map((m) => m.values(state.colorBy)).filter(Boolean);
   let [lo, hi] = colorRange(metric, all);
   const regionIds = mesh.cell.region;
-  if (state.colorBy === "region") [lo, hi] = [1, regionIds.reduce((m, v) => Math.max(m, v), 2)];
+  const byRegion = state.colorBy === "region";
+  if (byRegion) [lo, hi] = [1, regionIds.reduce((m, v) => Math.max(m, v), 2)];
+  else [lo, hi] = showRange(lo, hi);
   document.querySelector("[data-color=region]").hidden = !regionIds;
   if (view.mesh !== mesh) view.setMesh(mesh);
   view.setColors(mesh.values(state.colorBy), metric.on === "point", lo, hi);
@@ -427,11 +431,29 @@ function showMesh(fit = false) {
     ? `region: ${[...namesById(job.doc.regions).values()].join(", ")}`
     : metric.label;
   renderTagLegend($("legend-tags"), mesh, job.doc.tags);
+  $("legend-range").hidden = byRegion;
   $("legend-lo").textContent = lo.toFixed(2);
   $("legend-hi").textContent = hi.toFixed(2);
   $("legend-worst").textContent = view.showWorst && mesh.worst.length
     ? `red: the ${mesh.worst.length} lowest-quality triangles`
     : "";
+}
+
+/** The colour range: what people set for this metric, else the data's [lo, hi]; fills the inputs. */
+function showRange(lo, hi) {
+  const [setLo, setHi] = state.ranges[state.colorBy] || [null, null];
+  for (const [input, data, set] of [[$("range-lo"), lo, setLo], [$("range-hi"), hi, setHi]]) {
+    input.placeholder = data.toFixed(2);
+    if (document.activeElement !== input) input.value = set === null ? "" : String(set);
+  }
+  const range = [setLo ?? lo, setHi ?? hi];
+  return range[0] === range[1] ? [lo, hi] : range; // an empty range colours nothing
+}
+
+function readRange() {
+  const end = (input) => (input.value.trim() === "" || !Number.isFinite(Number(input.value)) ? null : Number(input.value));
+  state.ranges[state.colorBy] = [end($("range-lo")), end($("range-hi"))];
+  showMesh();
 }
 
 /** One coloured name per tag drawn on the mesh (the overlay's colours). */
@@ -516,6 +538,11 @@ function initToolbar() {
     view.invalidate();
   });
   $("fit").addEventListener("click", fitView);
+  for (const id of ["range-lo", "range-hi"]) $(id).addEventListener("change", readRange);
+  $("range-reset").addEventListener("click", () => {
+    delete state.ranges[state.colorBy];
+    showMesh();
+  });
   let resizing = null;
   window.addEventListener("resize", () => {
     clearTimeout(resizing);

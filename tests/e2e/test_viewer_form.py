@@ -7,14 +7,16 @@ import json
 from collections.abc import Iterator
 from pathlib import Path
 
+import numpy as np
 import pytest
+from matplotlib import colormaps
 
 from tests.conftest import DATA
 
 from . import test_viewer as viewer_tests
 from .browser import Browser, chromium_path
 from .server import Server
-from .test_viewer import _click, _paste, _rect
+from .test_viewer import _canvas_pixels, _choose, _click, _paste, _rect
 
 pytestmark = pytest.mark.e2e
 
@@ -64,3 +66,38 @@ def test_progress_stays_in_view_with_the_parameters_open(server: Server, browser
     assert shown["bottom"] <= b.evaluate("window.innerHeight")
     assert shown["inside"], "the progress bar is covered or clipped"
     b.wait_for("document.body.dataset.rendered", timeout=120)
+
+
+def _share_of_lowest_colour(rgb: np.ndarray) -> float:
+    """Share of the canvas in the colour map's lowest colour (viridis' dark purple)."""
+    low = np.round(np.asarray(colormaps["viridis"](0.0)[:3]) * 255)
+    return float(np.mean(np.linalg.norm(rgb.reshape(-1, 3) - low, axis=1) <= 12))
+
+
+def test_colour_range_is_adjustable(server: Server, browser: Browser) -> None:
+    b = browser
+    _ready(b, server)
+    _choose(b, "#method", "none")
+    _click(b, "#submit")
+    b.wait_for("document.body.dataset.rendered", timeout=120)
+    lo, hi = (
+        float(b.evaluate(f"document.getElementById('legend-{e}').textContent"))
+        for e in ("lo", "hi")
+    )
+    assert b.evaluate("document.getElementById('range-lo').placeholder") == f"{lo:.2f}"
+    assert b.evaluate("document.getElementById('range-lo').value") == ""  # default: the data's
+    before = _share_of_lowest_colour(_canvas_pixels(b, "viewer-range-data.png"))
+
+    # Widen the range far above the data (quality <= 1): every triangle takes the lowest colours.
+    _paste(b, "#range-hi", "10")
+    b.evaluate("document.getElementById('range-hi').dispatchEvent(new Event('change'))")
+    b.wait_for("document.getElementById('legend-hi').textContent === '10.00'")
+    widened = _share_of_lowest_colour(_canvas_pixels(b, "viewer-range-wide.png"))
+    assert widened > before + 0.1, (before, widened)  # the mesh fills ~40% of the canvas
+    assert b.evaluate("document.getElementById('legend-lo').textContent") == f"{lo:.2f}"
+
+    # Reset goes back to the data's range.
+    _click(b, "#range-reset")
+    b.wait_for(f"document.getElementById('legend-hi').textContent === '{hi:.2f}'")
+    assert b.evaluate("document.getElementById('range-hi').value") == ""
+    assert _share_of_lowest_colour(_canvas_pixels(b, "viewer-range-reset.png")) < before + 0.01
