@@ -12,6 +12,7 @@ import { METRICS, colorRange, meshesOf, namesById } from "./meshdata.js";
 import { TAG_COLORS } from "./view.js";
 import { ParamsForm } from "./params.js";
 import { EXAMPLES, estimateTriangles, parseRegion, regionStats, suggestSize } from "./region.js";
+import { recall, remember } from "./rerun.js";
 import { renderDownloads, renderSummary } from "./summary.js";
 import { MeshView } from "./view.js";
 
@@ -268,6 +269,7 @@ async function submit(e) {
     reportProblem(err);
     return;
   }
+  remember(status.jobID, inputs, state.region.text);
   jobs.setCurrent(status.jobID);
   jobs.refresh();
   follow(status.jobID);
@@ -355,10 +357,28 @@ async function openResult(id) {
   document.body.dataset.rendered = id;
 }
 
+/** Put what a job was asked for back in the form (its region too, when this browser sent it). */
+function restoreInputs(asked) {
+  if (!asked) return;
+  params.setValues(asked.inputs);
+  if (asked.regionText !== null) {
+    $("region-text").value = asked.regionText;
+    state.regionText = null; // read it again, with the restored CRS
+    readRegion();
+  }
+  if (asked.inputs.size !== undefined) {
+    $("size").value = asked.inputs.size;
+    state.sizeTouched = true;
+  }
+  updateSizeHint();
+}
+
 async function openJob(job) {
   showError(null);
   stopDrawing();
   jobs.setCurrent(job.jobID);
+  const asked = recall(job.jobID);
+  restoreInputs(asked);
   if (FINAL.has(job.status)) {
     if (state.watcher) state.watcher.stop();
     state.watcher = null;
@@ -366,6 +386,8 @@ async function openJob(job) {
     showProgress(job);
     if (job.status === "successful") {
       await openResult(job.jobID);
+      // Not sent from this browser: the parameters its result says it used (no region).
+      if (!asked && state.job && state.job.id === job.jobID) restoreInputs(recall(job.jobID, state.job.doc));
     } else {
       showJob(null);
       showError(new ApiError({ title: `The job ${job.status}`, detail: job.message || "" }));

@@ -16,11 +16,13 @@ from tests.conftest import DATA
 from . import test_viewer as viewer_tests
 from .browser import Browser, chromium_path
 from .server import Server
-from .test_viewer import _canvas_pixels, _choose, _click, _paste, _rect
+from .test_viewer import METHOD, _canvas_pixels, _choose, _click, _paste, _q, _rect
 
 pytestmark = pytest.mark.e2e
 
 server = viewer_tests.server
+#: A smoothing method other than "none", to change the form with.
+METHOD_OTHER = METHOD if METHOD != "none" else "laplacian"
 
 
 @pytest.fixture
@@ -101,3 +103,65 @@ def test_colour_range_is_adjustable(server: Server, browser: Browser) -> None:
     b.wait_for(f"document.getElementById('legend-hi').textContent === '{hi:.2f}'")
     assert b.evaluate("document.getElementById('range-hi').value") == ""
     assert _share_of_lowest_colour(_canvas_pixels(b, "viewer-range-reset.png")) < before + 0.01
+
+
+def _form(b: Browser) -> dict[str, object]:
+    return dict(
+        json.loads(
+            b.evaluate(
+                "JSON.stringify({region: document.getElementById('region-text').value.trim(),"
+                " size: document.getElementById('size').value,"
+                " growth: document.getElementById('growth').value,"
+                " swap: document.getElementById('swap').checked,"
+                " method: document.getElementById('method').value,"
+                " seed: document.getElementById('p-seed').value})"
+            )
+        )
+    )
+
+
+def test_opening_a_job_restores_its_region_and_parameters(server: Server, browser: Browser) -> None:
+    b = browser
+    _ready(b, server)
+    _paste(b, "#size", "0.05")
+    _paste(b, "#growth", "1.3")
+    _click(b, "#swap")
+    _choose(b, "#method", "none")
+    sent = _form(b)
+    assert sent["swap"] is False
+    _click(b, "#submit")
+    job_id = b.wait_for("document.body.dataset.rendered", timeout=120)
+
+    # Something else in the form: another region, other parameters.
+    _choose(
+        b, "#example", b.evaluate("document.querySelector('#example option:nth-child(3)').value")
+    )
+    _paste(b, "#growth", "1.1")
+    _click(b, "#swap")
+    _choose(b, "#method", METHOD_OTHER)
+    assert _form(b)["region"] != sent["region"]
+
+    # Opening the job from the list puts its region and parameters back.
+    item = f"#jobs li[data-job='{job_id}']"
+    b.wait_for(f"!!{_q(item)}")
+    b.evaluate(f"{_q(item)}.scrollIntoView()")  # the sidebar scrolls at this window size
+    _click(b, f"{item} .job-id")
+    b.wait_for("document.getElementById('region-status').textContent.includes('7 vertices')")
+    b.wait_for(f"document.body.dataset.rendered === '{job_id}'")
+    assert _form(b) == sent
+    assert "7 vertices" in b.evaluate("document.getElementById('region-status').textContent")
+
+    # A job this browser did not send: the parameters its result holds (no region).
+    b.evaluate(
+        "Object.keys(localStorage).filter(k => k.startsWith('evomesh.job'))"
+        ".forEach(k => localStorage.removeItem(k))"
+    )
+    b.goto("about:blank")  # a new page: only the hash would differ
+    b.goto(server.url + f"/viewer#job={job_id}")
+    b.wait_for("document.body.dataset.ready === 'true'", timeout=30)
+    used = server.client.get(f"/jobs/{job_id}/results").json()["summary"]["parameters"]
+    form = _form(b)
+    assert form["swap"] is False
+    assert form["method"] == "none"
+    assert used["smoothing"]["method"] == "none"
+    assert form["region"] == ""
