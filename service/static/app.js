@@ -8,8 +8,8 @@ import {
   LonLatDisplay, SQUARE_METRES_PER_UNIT, crsChoices, crsOf, forDisplay, isGeographic, partsForDisplay,
 } from "./geo.js";
 import { FINAL, JobList, stageLabel, watchJob } from "./jobs.js";
+import { ColourRange, readoutText, renderTagLegend } from "./legend.js";
 import { METRICS, colorRange, meshesOf, namesById } from "./meshdata.js";
-import { TAG_COLORS } from "./view.js";
 import { ParamsForm } from "./params.js";
 import { EXAMPLES, estimateTriangles, parseRegion, regionStats, suggestSize } from "./region.js";
 import { recall, remember } from "./rerun.js";
@@ -27,7 +27,6 @@ const state = {
   watcher: null,
   colorBy: "quality",
   which: "after",
-  ranges: {},          // colour ranges people set, by metric: [lo, hi] (null ends: the data's)
   timings: {},         // what the last result cost the browser (ms), for people and tests
 };
 
@@ -38,6 +37,7 @@ const view = new MeshView({
   renderer: new URLSearchParams(location.search).get("renderer") || "webgl2",
 });
 
+const colourRange = new ColourRange($("range-lo"), $("range-hi"), $("range-reset"), () => showMesh());
 let params = null;
 let drawTool = null;
 
@@ -400,7 +400,7 @@ async function openJob(job) {
 // -- showing a result ----------------------------------------------------------------------------
 
 function showJob(job) {
-  if (!job || !state.job || job.id !== state.job.id) state.ranges = {}; // a new job: its data's ranges
+  if (!job || !state.job || job.id !== state.job.id) colourRange.clear();
   state.job = job;
   if (!job) {
     view.setMesh(null);
@@ -441,7 +441,7 @@ function showMesh(fit = false) {
   const regionIds = mesh.cell.region;
   const byRegion = state.colorBy === "region";
   if (byRegion) [lo, hi] = [1, regionIds.reduce((m, v) => Math.max(m, v), 2)];
-  else [lo, hi] = showRange(lo, hi);
+  else [lo, hi] = colourRange.apply(state.colorBy, lo, hi);
   document.querySelector("[data-color=region]").hidden = !regionIds;
   if (view.mesh !== mesh) view.setMesh(mesh);
   view.setColors(mesh.values(state.colorBy), metric.on === "point", lo, hi);
@@ -461,36 +461,6 @@ function showMesh(fit = false) {
     : "";
 }
 
-/** The colour range: what people set for this metric, else the data's [lo, hi]; fills the inputs. */
-function showRange(lo, hi) {
-  const [setLo, setHi] = state.ranges[state.colorBy] || [null, null];
-  for (const [input, data, set] of [[$("range-lo"), lo, setLo], [$("range-hi"), hi, setHi]]) {
-    input.placeholder = data.toFixed(2);
-    if (document.activeElement !== input) input.value = set === null ? "" : String(set);
-  }
-  const range = [setLo ?? lo, setHi ?? hi];
-  return range[0] === range[1] ? [lo, hi] : range; // an empty range colours nothing
-}
-
-function readRange() {
-  const end = (input) => (input.value.trim() === "" || !Number.isFinite(Number(input.value)) ? null : Number(input.value));
-  state.ranges[state.colorBy] = [end($("range-lo")), end($("range-hi"))];
-  showMesh();
-}
-
-/** One coloured name per tag drawn on the mesh (the overlay's colours). */
-function renderTagLegend(box, mesh, tags) {
-  box.replaceChildren();
-  if (!mesh.lines) return;
-  const names = namesById(tags);
-  for (const id of [...new Set(mesh.lineTag)].sort((a, b) => a - b)) {
-    const span = document.createElement("span");
-    span.textContent = names.get(id) || `#${id}`;
-    span.style.color = TAG_COLORS[(id - 1) % TAG_COLORS.length];
-    box.append(span);
-  }
-}
-
 function drawHistograms() {
   const job = state.job;
   $("hist-box").hidden = false;
@@ -505,33 +475,10 @@ function drawHistograms() {
 
 function showReadout({ detail }) {
   const out = $("readout");
-  const { x, y, t } = detail;
-  if (x === null || x === undefined) {
-    out.hidden = true;
-    return;
-  }
-  const mesh = view.mesh;
+  out.hidden = detail.x === null || detail.x === undefined;
+  if (out.hidden) return;
   const display = state.job ? state.job.display : state.region && state.region.display;
-  let text;
-  if (display) {
-    const [lon, lat] = display.inverse(x, y);
-    text = `lon ${lon.toFixed(5)}°  lat ${lat.toFixed(5)}°`;
-  } else {
-    text = `x ${x.toPrecision(5)}  y ${y.toPrecision(5)}`;
-  }
-  if (mesh && t >= 0) {
-    const q = mesh.cell.quality[t];
-    text = `${display ? `${text} · ` : ""}triangle ${t.toLocaleString("en-US")} · quality ${q.toFixed(3)}`;
-    if (mesh.cell.min_angle) {
-      text += ` · angles ${mesh.cell.min_angle[t].toFixed(1)}°–${mesh.cell.max_angle[t].toFixed(1)}°`;
-    }
-    if (state.colorBy === "fitness" && mesh.node.fitness) {
-      const p = mesh.nearestCorner(t, x, y);
-      text += ` · node ${p} fitness ${mesh.node.fitness[p].toFixed(3)}`;
-    }
-  }
-  out.textContent = text;
-  out.hidden = false;
+  out.textContent = readoutText(detail, view.mesh, display, state.colorBy);
 }
 
 // -- the toolbar and keys --------------------------------------------------------------------------
@@ -560,11 +507,6 @@ function initToolbar() {
     view.invalidate();
   });
   $("fit").addEventListener("click", fitView);
-  for (const id of ["range-lo", "range-hi"]) $(id).addEventListener("change", readRange);
-  $("range-reset").addEventListener("click", () => {
-    delete state.ranges[state.colorBy];
-    showMesh();
-  });
   let resizing = null;
   window.addEventListener("resize", () => {
     clearTimeout(resizing);
