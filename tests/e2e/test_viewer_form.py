@@ -14,7 +14,7 @@ from matplotlib import colormaps
 from tests.conftest import DATA
 
 from . import test_viewer as viewer_tests
-from .browser import Browser, chromium_path
+from .browser import Browser
 from .server import Server
 from .test_viewer import METHOD, _canvas_pixels, _choose, _click, _paste, _q, _rect
 
@@ -28,11 +28,7 @@ METHOD_OTHER = METHOD if METHOD != "none" else "laplacian"
 @pytest.fixture
 def browser(tmp_path: Path) -> Iterator[Browser]:
     """A laptop-sized window: the sidebar overflows once the smoothing parameters are open."""
-    assert chromium_path(), "chromium is not installed: `make test` installs it (APT_PACKAGES)"
-    with Browser(tmp_path / "profile", width=1280, height=680, timeout=60) as b:
-        yield b
-        errors = b.console_errors()
-        assert not errors, errors
+    yield from viewer_tests.browser_session(tmp_path, width=1280, height=680)
 
 
 def _ready(b: Browser, server: Server) -> None:
