@@ -8,10 +8,11 @@ import {
   LonLatDisplay, SQUARE_METRES_PER_UNIT, crsChoices, crsOf, forDisplay, isGeographic, partsForDisplay,
 } from "./geo.js";
 import { FINAL, JobList, stageLabel, watchJob } from "./jobs.js";
+import { ColourRange, readoutText, renderTagLegend } from "./legend.js";
 import { METRICS, colorRange, meshesOf, namesById } from "./meshdata.js";
-import { TAG_COLORS } from "./view.js";
 import { ParamsForm } from "./params.js";
 import { EXAMPLES, estimateTriangles, parseRegion, regionStats, suggestSize } from "./region.js";
+import { recall, remember } from "./rerun.js";
 import { renderDownloads, renderSummary } from "./summary.js";
 import { MeshView } from "./view.js";
 
@@ -36,6 +37,7 @@ const view = new MeshView({
   renderer: new URLSearchParams(location.search).get("renderer") || "webgl2",
 });
 
+const colourRange = new ColourRange($("range-lo"), $("range-hi"), $("range-reset"), () => showMesh());
 let params = null;
 let drawTool = null;
 
@@ -267,6 +269,7 @@ async function submit(e) {
     reportProblem(err);
     return;
   }
+  remember(status.jobID, inputs, state.region.text);
   jobs.setCurrent(status.jobID);
   jobs.refresh();
   follow(status.jobID);
@@ -354,10 +357,28 @@ async function openResult(id) {
   document.body.dataset.rendered = id;
 }
 
+/** Put what a job was asked for back in the form (its region too, when this browser sent it). */
+function restoreInputs(asked) {
+  if (!asked) return;
+  params.setValues(asked.inputs);
+  if (asked.regionText !== null) {
+    $("region-text").value = asked.regionText;
+    state.regionText = null; // read it again, with the restored CRS
+    readRegion();
+  }
+  if (asked.inputs.size !== undefined) {
+    $("size").value = asked.inputs.size;
+    state.sizeTouched = true;
+  }
+  updateSizeHint();
+}
+
 async function openJob(job) {
   showError(null);
   stopDrawing();
   jobs.setCurrent(job.jobID);
+  const asked = recall(job.jobID);
+  restoreInputs(asked);
   if (FINAL.has(job.status)) {
     if (state.watcher) state.watcher.stop();
     state.watcher = null;
@@ -365,6 +386,8 @@ async function openJob(job) {
     showProgress(job);
     if (job.status === "successful") {
       await openResult(job.jobID);
+      // Not sent from this browser: the parameters its result says it used (no region).
+      if (!asked && state.job && state.job.id === job.jobID) restoreInputs(recall(job.jobID, state.job.doc));
     } else {
       showJob(null);
       showError(new ApiError({ title: `The job ${job.status}`, detail: job.message || "" }));
@@ -377,6 +400,7 @@ async function openJob(job) {
 // -- showing a result ----------------------------------------------------------------------------
 
 function showJob(job) {
+  if (!job || !state.job || job.id !== state.job.id) colourRange.clear();
   state.job = job;
   if (!job) {
     view.setMesh(null);
@@ -415,7 +439,9 @@ function showMesh(fit = false) {
   const all = [job.meshes.after, job.meshes.before].filter(Boolean).map((m) => m.values(state.colorBy)).filter(Boolean);
   let [lo, hi] = colorRange(metric, all);
   const regionIds = mesh.cell.region;
-  if (state.colorBy === "region") [lo, hi] = [1, regionIds.reduce((m, v) => Math.max(m, v), 2)];
+  const byRegion = state.colorBy === "region";
+  if (byRegion) [lo, hi] = [1, regionIds.reduce((m, v) => Math.max(m, v), 2)];
+  else [lo, hi] = colourRange.apply(state.colorBy, lo, hi);
   document.querySelector("[data-color=region]").hidden = !regionIds;
   if (view.mesh !== mesh) view.setMesh(mesh);
   view.setColors(mesh.values(state.colorBy), metric.on === "point", lo, hi);
@@ -427,24 +453,12 @@ function showMesh(fit = false) {
     ? `region: ${[...namesById(job.doc.regions).values()].join(", ")}`
     : metric.label;
   renderTagLegend($("legend-tags"), mesh, job.doc.tags);
+  $("legend-range").hidden = byRegion;
   $("legend-lo").textContent = lo.toFixed(2);
   $("legend-hi").textContent = hi.toFixed(2);
   $("legend-worst").textContent = view.showWorst && mesh.worst.length
     ? `red: the ${mesh.worst.length} lowest-quality triangles`
     : "";
-}
-
-/** One coloured name per tag drawn on the mesh (the overlay's colours). */
-function renderTagLegend(box, mesh, tags) {
-  box.replaceChildren();
-  if (!mesh.lines) return;
-  const names = namesById(tags);
-  for (const id of [...new Set(mesh.lineTag)].sort((a, b) => a - b)) {
-    const span = document.createElement("span");
-    span.textContent = names.get(id) || `#${id}`;
-    span.style.color = TAG_COLORS[(id - 1) % TAG_COLORS.length];
-    box.append(span);
-  }
 }
 
 function drawHistograms() {
@@ -461,33 +475,10 @@ function drawHistograms() {
 
 function showReadout({ detail }) {
   const out = $("readout");
-  const { x, y, t } = detail;
-  if (x === null || x === undefined) {
-    out.hidden = true;
-    return;
-  }
-  const mesh = view.mesh;
+  out.hidden = detail.x === null || detail.x === undefined;
+  if (out.hidden) return;
   const display = state.job ? state.job.display : state.region && state.region.display;
-  let text;
-  if (display) {
-    const [lon, lat] = display.inverse(x, y);
-    text = `lon ${lon.toFixed(5)}°  lat ${lat.toFixed(5)}°`;
-  } else {
-    text = `x ${x.toPrecision(5)}  y ${y.toPrecision(5)}`;
-  }
-  if (mesh && t >= 0) {
-    const q = mesh.cell.quality[t];
-    text = `${display ? `${text} · ` : ""}triangle ${t.toLocaleString("en-US")} · quality ${q.toFixed(3)}`;
-    if (mesh.cell.min_angle) {
-      text += ` · angles ${mesh.cell.min_angle[t].toFixed(1)}°–${mesh.cell.max_angle[t].toFixed(1)}°`;
-    }
-    if (state.colorBy === "fitness" && mesh.node.fitness) {
-      const p = mesh.nearestCorner(t, x, y);
-      text += ` · node ${p} fitness ${mesh.node.fitness[p].toFixed(3)}`;
-    }
-  }
-  out.textContent = text;
-  out.hidden = false;
+  out.textContent = readoutText(detail, view.mesh, display, state.colorBy);
 }
 
 // -- the toolbar and keys --------------------------------------------------------------------------

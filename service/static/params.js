@@ -57,6 +57,21 @@ export class ParamsForm {
     this._showRelevant();
   }
 
+  /** Put a job's inputs back in the form; smoothing fields it did not send go back to defaults. */
+  setValues(inputs) {
+    const f = this.form;
+    const smoothing = inputs.smoothing || {};
+    if (inputs.swap !== undefined) f.swap.checked = inputs.swap !== false;
+    if (inputs.growth !== undefined) f.growth.value = inputs.growth;
+    if (f.crs) f.crs.value = inputs.crs || "";
+    if ([...f.method.options].some((o) => o.value === smoothing.method)) f.method.value = smoothing.method;
+    for (const [name, field] of Object.entries(this.fields)) {
+      const v = smoothing[name];
+      field.input.value = v === undefined || v === null ? field.initial : String(v);
+    }
+    this._showRelevant();
+  }
+
   _bounds(input, schema) {
     const s = core(schema);
     if (s.minimum !== undefined) input.min = s.minimum;
@@ -87,7 +102,7 @@ export class ParamsForm {
     input.name = name;
     input.title = schema.description || "";
     wrap.append(label, input);
-    this.fields[name] = { wrap, input, integer: s.type === "integer" };
+    this.fields[name] = { wrap, input, integer: s.type === "integer", initial: input.value };
     return wrap;
   }
 

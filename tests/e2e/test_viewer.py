@@ -37,13 +37,18 @@ def server(tmp_path: Path) -> Iterator[Server]:
     s.stop()
 
 
-@pytest.fixture
-def browser(tmp_path: Path) -> Iterator[Browser]:
+def browser_session(tmp_path: Path, width: int = 1440, height: int = 900) -> Iterator[Browser]:
+    """A browser of a window size for a test, which must leave no console errors."""
     assert chromium_path(), "chromium is not installed: `make test` installs it (APT_PACKAGES)"
-    with Browser(tmp_path / "profile", width=1440, height=900, timeout=60) as b:
+    with Browser(tmp_path / "profile", width=width, height=height, timeout=60) as b:
         yield b
         errors = b.console_errors()
         assert not errors, errors
+
+
+@pytest.fixture
+def browser(tmp_path: Path) -> Iterator[Browser]:
+    yield from browser_session(tmp_path)
 
 
 def _q(selector: str) -> str:
