@@ -60,7 +60,8 @@ typecheck: $(TEST_STAMP)
 docs: $(TEST_STAMP)
 	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --site-dir site
 
-test: $(TEST_STAMP) system-deps lint typecheck docs
+# The kernels are compiled before the tests start: servers the tests start wait for warm workers.
+test: $(TEST_STAMP) system-deps lint typecheck docs $(VENV)/.warm
 	$(BIN)/python -m pytest -n auto $(PYTEST_ARGS)
 
 bench: $(VENV)/.bench-installed
