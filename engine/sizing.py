@@ -379,15 +379,40 @@ def build_size_field(
     return SizeField(tree, samples)
 
 
-def _crossing(a: FloatArray, b: FloatArray, seg: IntArray, c: FloatArray, half: float
-              ) -> NDArray[np.bool_]:  # fmt: skip
-    """Whether segment ``a[seg] -> b[seg]`` meets the square of half-side ``half`` centred at
-    ``c`` (separating axes: the two boxes, and the segment's normal)."""
-    sa, sb = a[seg], b[seg]
-    overlap = np.all((np.minimum(sa, sb) <= c + half) & (np.maximum(sa, sb) >= c - half), axis=1)
-    d = sb - sa
-    side = d[:, 0] * (c[:, 1] - sa[:, 1]) - d[:, 1] * (c[:, 0] - sa[:, 0])
-    return overlap & (np.abs(side) <= half * (np.abs(d[:, 0]) + np.abs(d[:, 1])))
+class _Segments(NamedTuple):
+    """Boundary segments ``a[i] -> b[i]`` as numba kernels take them."""
+
+    a: FloatArray
+    b: FloatArray
+
+
+@nb.njit(cache=True)
+def _child_pairs(
+    parent: IntArray, seg: IntArray, centres: FloatArray, segs: _Segments, quarter: float
+) -> tuple[IntArray, IntArray]:  # pragma: no cover - compiled
+    """The (child, segment) pairs that meet, from the (parent, segment) pairs that do: child
+    ``k`` of split parent ``p`` is ``centres[k * ns + p]``, a square of half-side ``quarter``
+    (separating axes: the two boxes, and the segment's normal)."""
+    ns = centres.shape[0] // 4
+    out_cell = np.empty(4 * parent.shape[0], dtype=np.int64)
+    out_seg = np.empty(4 * parent.shape[0], dtype=np.int64)
+    n = 0
+    for i in range(parent.shape[0]):
+        s = seg[i]
+        ax, ay, bx, by = segs.a[s, 0], segs.a[s, 1], segs.b[s, 0], segs.b[s, 1]
+        reach = quarter * (abs(bx - ax) + abs(by - ay))
+        for k in range(4):
+            c = k * ns + parent[i]
+            cx, cy = centres[c, 0], centres[c, 1]
+            if min(ax, bx) > cx + quarter or max(ax, bx) < cx - quarter:
+                continue
+            if min(ay, by) > cy + quarter or max(ay, by) < cy - quarter:
+                continue
+            if abs((bx - ax) * (cy - ay) - (by - ay) * (cx - ax)) > reach:
+                continue
+            out_cell[n], out_seg[n] = c, s
+            n += 1
+    return out_cell[:n], out_seg[:n]
 
 
 class _Level(NamedTuple):
@@ -400,8 +425,7 @@ class _Level(NamedTuple):
     pair_seg: IntArray
 
 
-def _children(lv: _Level, split: NDArray[np.bool_], cell: float, a: FloatArray, b: FloatArray
-              ) -> _Level:  # fmt: skip
+def _children(lv: _Level, split: NDArray[np.bool_], cell: float, segs: _Segments) -> _Level:
     """The four children of each split cell; a child only meets the segments its parent met,
     and a child of a cell the boundary does not cut lies on the same side as its parent."""
     quarter = 0.25 * cell
@@ -411,11 +435,8 @@ def _children(lv: _Level, split: NDArray[np.bool_], cell: float, a: FloatArray, 
     index = np.full(len(lv.centres), -1)
     index[split] = np.arange(ns)
     keep = index[lv.pair_cell] >= 0
-    parent, seg = index[lv.pair_cell[keep]], lv.pair_seg[keep]
-    cand = (parent[None, :] + ns * np.arange(4)[:, None]).ravel()
-    seg = np.tile(seg, 4)
-    hit = _crossing(a, b, seg, centres[cand], quarter)
-    return _Level(centres, np.tile(lv.inside[split], 4), cand[hit], seg[hit])
+    pc, ps = _child_pairs(index[lv.pair_cell[keep]], lv.pair_seg[keep], centres, segs, quarter)
+    return _Level(centres, np.tile(lv.inside[split], 4), pc, ps)
 
 
 def _leaf_share(shape: shapely.Geometry, centres: FloatArray, inside: NDArray[np.int8],
@@ -454,6 +475,7 @@ def _area_integral(
         nx, ny = max(math.ceil((x1 - x0) / cell), 1), max(math.ceil((y1 - y0) / cell), 1)
     gx, gy = np.meshgrid(x0 + cell * (np.arange(nx) + 0.5), y0 + cell * (np.arange(ny) + 0.5))
     centres = np.c_[gx.ravel(), gy.ravel()]
+    segs = _Segments(np.ascontiguousarray(a), np.ascontiguousarray(b))
     edges = shapely.STRtree(shapely.linestrings(np.stack([a, b], axis=1)))
     boxes = shapely.box(*(centres - 0.5 * cell).T, *(centres + 0.5 * cell).T)
     pair_cell, pair_seg = edges.query(boxes, predicate="intersects")
@@ -481,7 +503,7 @@ def _area_integral(
             total += float(np.sum(share / h[ids] ** 2))
             if total > cap:
                 return total
-        lv = _children(lv, split, cell, a, b)
+        lv = _children(lv, split, cell, segs)
         cell *= 0.5
     return total
 
