@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -9,7 +11,7 @@ from hypothesis import strategies as st
 
 from engine import Cancelled, LimitExceeded, SizingParams, make_region, mesh_region
 from engine.boundary import Region
-from engine.sizing import build_size_field, estimate_triangles
+from engine.sizing import SizeField, build_size_field, estimate_triangles
 
 #: Cone evaluations a size-field query may take on average (the old all-pairs field took
 #: 130,000-260,000 on a 1e-6-wide spike).
@@ -29,6 +31,21 @@ def _spike(width: float, length: float = 1.0, angle: float = 90.0) -> Region:
 def _ellipse(n: int, a: float, b: float) -> Region:
     t = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
     return make_region([(np.c_[a * np.cos(t), b * np.sin(t)], [])])
+
+
+@dataclass(frozen=True)
+class _CountingField(SizeField):
+    """A size field that records how many points it was asked for."""
+
+    asked: list[int] = field(default_factory=list)
+
+    def evaluate(self, xy: np.ndarray) -> tuple[np.ndarray, int]:
+        self.asked.append(len(xy))
+        return super().evaluate(xy)
+
+
+def _counting(region: Region, size: float) -> _CountingField:
+    return _CountingField(build_size_field(region, SizingParams(size=size)).tree)
 
 
 def _cost(region: Region, size: float) -> tuple[int, float, int]:
@@ -115,3 +132,22 @@ def test_every_meshing_stage_reports_progress_and_can_be_cancelled() -> None:
                 region, SizingParams(size=0.5), should_stop=stop,
                 progress=lambda s, f, polls=polls: polls.append(s),
             )  # fmt: skip
+
+
+def test_a_cap_the_area_already_passes_is_refused_without_counting() -> None:
+    # 1 / (sqrt(3)/4 * 1e-8): 230 million triangles; the old estimate evaluated 390,625 cells.
+    square = make_region([([[0, 0], [1, 0], [1, 1], [0, 1]], [])])
+    counted = _counting(square, 1e-4)
+    assert estimate_triangles(square, counted, cap=1_000_000) > 1_000_000
+    assert sum(counted.asked) == 0
+
+
+def test_a_cap_stops_the_quadtree_at_the_first_level_that_passes_it() -> None:
+    # A 0.001 segment refines the field near it (1,233 triangles in all); the plain-size bound
+    # (961) is under the cap, the first level's count with the boundary nodes passes it.
+    region = make_region([([[0, 0], [1, 0], [1, 0.001], [1, 1], [0, 1]], [])])
+    whole = _counting(region, 0.05)
+    assert estimate_triangles(region, whole) > 1_200
+    capped = _counting(region, 0.05)
+    assert estimate_triangles(region, capped, cap=1_000) > 1_000
+    assert len(capped.asked) == 1 < len(whole.asked)
