@@ -61,9 +61,15 @@ class Server:
             cmd, stdout=self._log, stderr=subprocess.STDOUT, env={**os.environ, **env}
         )
         self.client = httpx.Client(base_url=self.url, timeout=30)
-        self._wait_ready()
+        try:
+            self._wait_ready()
+        except BaseException:
+            self.stop(signal.SIGKILL)  # leave no server, socket or log file behind
+            raise
 
-    def _wait_ready(self, timeout: float = 60.0) -> None:
+    # Workers load the engine's kernels before the service is ready: seconds from the numba
+    # cache (make test fills it first), minutes on a busy machine without one.
+    def _wait_ready(self, timeout: float = 240.0) -> None:
         deadline = time.monotonic() + timeout
         while True:
             assert self.proc.poll() is None, f"the server exited: {self.log()}"
