@@ -32,7 +32,14 @@ from .boundary import Region, make_region
 from .errors import InvalidBoundary
 from .params import SizingParams
 
-__all__ = ["CORNER_DEG", "DEFAULT_TOLERANCE", "Resampled", "resample_region", "resample_size"]
+__all__ = [
+    "CORNER_DEG",
+    "DEFAULT_TOLERANCE",
+    "Resampled",
+    "corners",
+    "resample_region",
+    "resample_size",
+]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
