@@ -30,6 +30,7 @@ from .params import PipelineParams, SizingParams, SmoothingParams
 from .pipeline import assess_mesh, mesh_region, mesh_then_smooth, smooth_mesh, warmup
 from .quality import METRICS, Metric, TriangleQuality, register_metric, summarize, triangle_quality
 from .refinement import Refinement
+from .resample import Resampled, resample_region
 from .result import ProgressFn, Result, SmoothOutcome, Snapshot, StopFn, SweepStats
 from .sizing import estimate_triangles
 from .smoothing import SMOOTHERS
@@ -56,6 +57,7 @@ __all__ = [
     "ProgressFn",
     "Refinement",
     "Region",
+    "Resampled",
     "Result",
     "SizingParams",
     "SmoothOutcome",
@@ -76,6 +78,7 @@ __all__ = [
     "mesh_with_constraints",
     "node_fitness",
     "register_metric",
+    "resample_region",
     "smooth_mesh",
     "summarize",
     "tag_mesh",

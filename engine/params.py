@@ -28,6 +28,11 @@ class SizingParams:
     size_max: float | None = None  #: upper clamp of the local size
     #: Local sizes on geometries (:mod:`engine.refinement`), combined with the rest by the minimum.
     refinements: tuple[Refinement, ...] = ()
+    #: Re-discretise digitised rings to the local size before meshing (:mod:`engine.resample`)
+    #: instead of keeping every input vertex; corners stay.
+    resample: bool = False
+    #: Largest distance of the resampled boundary from the input; None: 0.1 of the local size.
+    resample_tolerance: float | None = None
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.size) and self.size > 0):
@@ -38,6 +43,12 @@ class SizingParams:
             v = getattr(self, name)
             if v is not None and not (math.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be a positive number, got {v}")
+        if self.resample_tolerance is not None and not (
+            math.isfinite(self.resample_tolerance) and self.resample_tolerance > 0
+        ):
+            raise ValueError(
+                f"resample_tolerance must be a positive number, got {self.resample_tolerance}"
+            )
         if (
             self.size_min is not None
             and self.size_max is not None

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from typing import Any
 
 import numpy as np
@@ -20,6 +20,7 @@ from .mesh import Mesh
 from .params import PipelineParams, SizingParams, SmoothingParams
 from .quality import shape_quality, summarize, triangle_quality
 from .relax import relax
+from .resample import resample_region
 from .result import ProgressFn, Result, Snapshot, StopFn
 from .sizing import build_size_field, estimate_triangles
 from .smoothing import SMOOTHERS, smooth_points
@@ -151,10 +152,14 @@ def mesh_region(
     Raises :class:`LimitExceeded` when the estimated (or, while meshing, the actual) triangle
     count is over ``max_triangles``; every stage polls ``should_stop`` and reports ``progress``
     (stages ``sizing``, ``estimate``, ``discretize``, ``front``, ``relax``, ``collapse``).
+    With ``sizing.resample`` the rings are resampled first (:mod:`engine.resample`), so the
+    field and the estimate see the resampled boundary.
     """
     progress = progress or _no_progress
     should_stop = should_stop or _never
     t0 = time.perf_counter()
+    if sizing.resample:
+        region = resample_region(region, sizing).region
     field = build_size_field(region, sizing, progress, should_stop)
     estimate = estimate_triangles(
         region, field, cap=max_triangles, progress=progress, should_stop=should_stop
@@ -271,14 +276,21 @@ def mesh_then_smooth(
     _check_method(params.smoothing)
     started = time.perf_counter()
     progress("boundary", 0.0)
+    sizing, boundary = params.sizing, None
+    if sizing.resample:  # here rather than in mesh_region, to report the deviation
+        resampled = resample_region(region, sizing)
+        region, sizing, boundary = resampled.region, replace(sizing, resample=False), resampled
     mesh, timings = mesh_region(
-        region, params.sizing, params.relax, should_stop, params.max_triangles, progress
+        region, sizing, params.relax, should_stop, params.max_triangles, progress
     )
     progress("mesh", 1.0)
-    return _improve(
+    result = _improve(
         mesh, params.smoothing, params.swap, rng, progress, should_stop, timings,
         params.to_dict(), started,
     )  # fmt: skip
+    if boundary is not None:
+        result.smoothed.summary["boundary"] = boundary.summary()
+    return result
 
 
 def smooth_mesh(

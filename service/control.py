@@ -57,7 +57,10 @@ def estimate_or_refuse(
 ) -> int:
     """The engine's triangle estimate, counting stopped past ``cap``; a 422 ``Problem`` at
     ``pointer`` when the size field cannot be built (too many gap samples) or the estimate is
-    over ``cap`` (saying why when the boundary's vertices, closer than the size, drive it)."""
+    over ``cap`` (saying why when the boundary's vertices, closer than the size, drive it).
+    With ``sizing.resample`` the estimate is of the resampled region, as the engine meshes it."""
+    if sizing.resample:
+        region = engine.resample_region(region, sizing).region
     try:
         field = build_size_field(region, sizing)
     except engine.LimitExceeded as exc:
@@ -69,11 +72,12 @@ def estimate_or_refuse(
         detail = (
             f"the estimated number of triangles is over {triangles:,}, over the limit of {cap:,}"
         )
-        if _short_share(region, sizing.size) > _DENSE_SHARE:
+        if not sizing.resample and _short_share(region, sizing.size) > _DENSE_SHARE:
             detail += (
                 f"; most of the boundary's {region.n_vertices:,} vertices are closer together"
-                " than the size, and every boundary vertex is kept as a mesh node: use a larger"
-                " size or simplify the boundary"
+                " than the size, and every boundary vertex is kept as a mesh node: use"
+                " `resample: true` (CLI --resample) to re-discretise it to the size, or use a"
+                " larger size or simplify the boundary"
             )
         raise Problem(
             422, detail, kind="limit-exceeded", title="Input over a limit", pointer=pointer

@@ -233,6 +233,20 @@ class MeshInputs(BaseModel):
             " `name`, points become mesh nodes; neither moves nor is swapped away (planar only)"
         ),
     )
+    resample: bool = Field(
+        False,
+        description=(
+            "re-discretise the rings to the local size instead of keeping every vertex (for"
+            " digitised boundaries): corners stay, the meshed boundary stays within"
+            " `resample_tolerance` of the input; the result's summary.boundary.max_deviation"
+            " reports the largest distance"
+        ),
+    )
+    resample_tolerance: float | None = Field(
+        None,
+        gt=0,
+        description="with `resample`, the largest distance allowed (default 0.1 of the size)",
+    )
 
 
 Index = Annotated[int, Field(ge=0, le=2**31 - 1)]

@@ -305,7 +305,12 @@ def _prepare_mesh(inputs: MeshInputs, settings: Settings, where: Where) -> Prepa
         settings.max_vertices,
         where("refinements"),
     )
-    sizing = replace(sizing, refinements=refinements_of(refinements))
+    sizing = replace(
+        sizing,
+        refinements=refinements_of(refinements),
+        resample=inputs.resample,
+        resample_tolerance=inputs.resample_tolerance,
+    )
     smoothing = _smoothing(inputs.smoothing, where)
     if sizes is None:
         triangles = estimate_or_refuse(parsed.region, sizing, settings.max_triangles, where("size"))
@@ -337,6 +342,8 @@ def _prepare_mesh(inputs: MeshInputs, settings: Settings, where: Where) -> Prepa
         "growth": sizing.growth,
         "size_min": sizing.size_min,
         "size_max": sizing.size_max,
+        "resample": sizing.resample,
+        "resample_tolerance": sizing.resample_tolerance,
         "swap": inputs.swap,
         "smoothing": smoothing,
         "max_triangles": triangle_cap(smoothing, settings),

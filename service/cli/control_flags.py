@@ -3,7 +3,8 @@
 ``--refine JSON`` (repeatable) adds one ``{"geometry": ..., "size": s}``; ``--refinements FILE``
 reads a list of them; ``--constraints FILE`` reads a GeoJSON geometry or FeatureCollection of
 (Multi)LineStrings and (Multi)Points. Boundary tags come with the region file itself
-(``properties.name`` and ``properties.tags``).
+(``properties.name`` and ``properties.tags``). ``--resample`` (and ``--resample-tolerance``)
+re-discretises a digitised boundary to the size instead of keeping every vertex.
 """
 
 from __future__ import annotations
@@ -17,7 +18,8 @@ __all__ = ["add_control_flags", "control_inputs"]
 
 
 def add_control_flags(p: argparse.ArgumentParser | Any) -> None:
-    """Add ``--refine``, ``--refinements`` and ``--constraints`` to a parser (or group)."""
+    """Add ``--refine``, ``--refinements``, ``--constraints``, ``--resample`` and
+    ``--resample-tolerance`` to a parser (or group)."""
     p.add_argument(
         "--refine",
         action="append",
@@ -31,6 +33,19 @@ def add_control_flags(p: argparse.ArgumentParser | Any) -> None:
         metavar="FILE",
         help="GeoJSON lines that become mesh edges and points that become mesh nodes",
     )
+    p.add_argument(
+        "--resample",
+        action="store_true",
+        help="re-discretise the boundary to the size (corners kept) instead of keeping every"
+        " vertex: for digitised boundaries with vertices far closer than the size",
+    )
+    p.add_argument(
+        "--resample-tolerance",
+        type=float,
+        metavar="D",
+        help="with --resample, largest distance of the meshed boundary from the input"
+        " (default 0.1 of the size)",
+    )
 
 
 def _json(text: str, what: str) -> Any:
@@ -41,7 +56,8 @@ def _json(text: str, what: str) -> Any:
 
 
 def control_inputs(args: argparse.Namespace) -> dict[str, Any]:
-    """The ``refinements`` and ``constraints`` inputs the flags give (absent when not given)."""
+    """The ``refinements``, ``constraints``, ``resample`` and ``resample_tolerance`` inputs the
+    flags give (absent when not given)."""
     refinements = [_json(r, f"--refine {r!r}") for r in args.refine]
     if args.refinements:
         listed = _json(Path(args.refinements).read_text(), args.refinements)
@@ -53,4 +69,10 @@ def control_inputs(args: argparse.Namespace) -> dict[str, Any]:
         out["refinements"] = refinements
     if args.constraints:
         out["constraints"] = _json(Path(args.constraints).read_text(), args.constraints)
+    if args.resample_tolerance is not None and not args.resample_tolerance > 0:
+        raise ValueError(f"--resample-tolerance must be positive, got {args.resample_tolerance}")
+    if args.resample:
+        out["resample"] = True
+    if args.resample_tolerance is not None:
+        out["resample_tolerance"] = args.resample_tolerance
     return out

@@ -161,6 +161,8 @@ def run_mesh(args: argparse.Namespace) -> int:
             args.size_min,
             args.size_max,
             refinements_of(payload["refinements"]),
+            resample=args.resample,
+            resample_tolerance=args.resample_tolerance,
         ),
         swap=not args.no_swap,
         smoothing=_smoothing(args),

@@ -84,6 +84,9 @@ def mesh(
                 payload.get("size_min"),
                 payload.get("size_max"),
                 refinements_of(payload.get("refinements", [])),
+                # .get: jobs stored before resampling existed lack the two
+                resample=bool(payload.get("resample", False)),
+                resample_tolerance=payload.get("resample_tolerance"),
             ),
             swap=bool(payload["swap"]),
             # The service's limits (max_triangles, and the GA work as triangles) on the real

@@ -133,7 +133,8 @@ async def test_the_stored_input_is_the_normalised_region_not_the_request(
     stored = store.inputs(job["jobID"])
     assert set(stored) == {
         "parts", "crs", "size", "growth", "size_min", "size_max", "swap", "smoothing",
-        "max_triangles", "tagging", "refinements", "constraints", "subdomains",
+        "max_triangles", "tagging", "refinements", "constraints", "subdomains", "resample",
+        "resample_tolerance",
     }  # fmt: skip
     assert stored["crs"] is None  # planar: no CRS to map back
     # The tagging is plain data (names and runs), never the Feature's other members.
