@@ -29,20 +29,17 @@ sys.path.insert(0, str(ROOT))
 from record import write_rows  # noqa: E402 - benchmarks/ is on the path as the script's folder
 
 from tests.e2e.server import Server  # noqa: E402 - after the path set-up
+from tests.service.test_body_pool import grid_mesh  # noqa: E402 - the tests' grid mesh
 
 
 def grid_body(side: int, refused: bool = False) -> bytes:
     """A ``quality`` request for a side x side grid of points with non-round coordinates;
     ``refused``: its last triangle index a string, so validation walks it all, then says 422."""
-    points = [[i * 1.0123457, j * 0.9876543] for j in range(side) for i in range(side)]
-    triangles = []
-    for j in range(side - 1):
-        for i in range(side - 1):
-            a = j * side + i
-            triangles += [[a, a + 1, a + side + 1], [a, a + side + 1, a + side]]
+    mesh = grid_mesh(side)
+    triangles = mesh["triangles"]
     if refused:
-        triangles[-1][2] = "7"  # type: ignore[call-overload]
-    return orjson.dumps({"inputs": {"mesh": {"points": points, "triangles": triangles}}})
+        triangles[-1][2] = "7"
+    return orjson.dumps({"inputs": {"mesh": mesh}})
 
 
 def measure(server: Server, body: bytes) -> dict[str, Any]:
