@@ -5,8 +5,11 @@ Host check answering with a problem document."""
 
 from __future__ import annotations
 
+import asyncio
+import logging
 from collections.abc import Callable, Coroutine, Sequence
 from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from functools import cache
 from typing import Any
 
@@ -22,6 +25,8 @@ from starlette.middleware.trustedhost import TrustedHostMiddleware
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from .problems import Problem, response_for
+
+log = logging.getLogger("evomesh.service")
 
 __all__ = [
     "BodyLimit",
@@ -209,9 +214,17 @@ def _poolable(field: Any) -> Any:
     return False if annotation is None or "<locals>" in qualname else annotation
 
 
-async def _in_pool(pool: ProcessPoolExecutor, body: bytes, max_depth: int, annotation: Any) -> Any:
-    future = pool.submit(_validate_in_child, body, max_depth, annotation)
-    tag, payload = await anyio.to_thread.run_sync(future.result)
+async def _in_pool(
+    pool: ProcessPoolExecutor, body: bytes, max_depth: int, annotation: Any, field: Any
+) -> Any:
+    try:
+        # awaited on the loop: no thread waits for the child
+        tag, payload = await asyncio.wrap_future(
+            pool.submit(_validate_in_child, body, max_depth, annotation)
+        )
+    except BrokenProcessPool:  # a child died (out of memory): this body in a thread, as before
+        log.error("the body process pool is broken; reading bodies in a thread")
+        return await anyio.to_thread.run_sync(_decode_and_validate, body, max_depth, field)
     if tag == "problem":
         status, detail, fields = payload
         raise Problem(status, detail, **fields)
@@ -249,7 +262,7 @@ async def read_json_body(
     if len(body) <= INLINE_BODY_BYTES:
         value = _decode_and_validate(body, max_depth, field)
     elif pool is not None and len(body) >= pool_bytes and annotation is not False:
-        value = await _in_pool(pool, body, max_depth, annotation)
+        value = await _in_pool(pool, body, max_depth, annotation, field)
     else:
         value = await anyio.to_thread.run_sync(_decode_and_validate, body, max_depth, field)
     request._json = value  # what Request.json() returns from now on
