@@ -187,22 +187,16 @@ def _validate_in_child(body: bytes, max_depth: int, annotation: Any) -> tuple[st
         return "invalid", errors
 
 
-def _warm() -> None:
-    """Run once per pool process at start, so the first large body does not pay the imports."""
-    import service.inputs  # noqa: F401
-
-
 def body_pool(workers: int) -> ProcessPoolExecutor | None:
     """The processes that decode and validate large bodies (``None`` when ``workers`` is 0).
-    Spawned, not forked: the service runs threads (and numba) that a fork would copy mid-step."""
+    Spawned, not forked: the service runs threads (and numba) that a fork would copy mid-step.
+    They start with the first large body (their imports take a second, off the loop), so a
+    service that is never sent one never pays for them."""
     if workers <= 0:
         return None
     import multiprocessing
 
-    pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"))
-    for _ in range(workers):
-        pool.submit(_warm)
-    return pool
+    return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"))
 
 
 def _poolable(field: Any) -> Any:
