@@ -15,7 +15,6 @@ from typing import Any
 from fastapi import FastAPI
 from fastapi.middleware.cors import CORSMiddleware
 from starlette.middleware.gzip import GZipMiddleware
-from starlette.middleware.trustedhost import TrustedHostMiddleware
 
 from . import problems
 from .callbacks import CallbackNotifier
@@ -25,7 +24,7 @@ from .jobs.manager import JobManager
 from .jobs.sqlite import SqliteJobStore
 from .jobs.store import JobStore
 from .metrics import Metrics
-from .middleware import BodyLimit
+from .middleware import BodyLimit, TrustedHosts, body_pool
 from .openapi import complete, to_openapi30
 from .processes import PROCESSES, Process
 from .render.pool import RenderPool
@@ -63,10 +62,14 @@ def create_app(
         await manager.start()
         app.state.manager = manager
         app.state.callbacks = notifier
+        app.state.body_pool = body_pool(settings.body_workers)
         try:
             yield
         finally:
             app.state.manager = None
+            if app.state.body_pool is not None:
+                app.state.body_pool.shutdown(cancel_futures=True)
+                app.state.body_pool = None
             await manager.close()
             await notifier.close()
             app.state.metrics.registry.unregister(collector)
@@ -84,6 +87,7 @@ def create_app(
     app.state.settings = settings
     app.state.metrics = Metrics()
     app.state.manager = None
+    app.state.body_pool = None
     app.state.render_pool = RenderPool(settings.render_workers, settings.render_cache_bytes)
     problems.install(app)
     app.include_router(landing.router)
@@ -114,7 +118,7 @@ def create_app(
     if settings.trusted_hosts:
         # Links and Location headers are built from the Host header unless public_url is set:
         # a Host the operator did not list is refused, never echoed.
-        app.add_middleware(TrustedHostMiddleware, allowed_hosts=settings.trusted_hosts)
+        app.add_middleware(TrustedHosts, allowed_hosts=settings.trusted_hosts)
     _document_problems(app)
     return app
 

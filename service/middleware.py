@@ -1,9 +1,16 @@
 """Request bodies: the size limit, enforced while the body streams in, and the JSON reading of
-bodies (media type, nesting depth before decoding, decoding off the event loop)."""
+bodies (media type, nesting depth before decoding, decoding off the event loop: in a thread, or
+for large bodies in a small process pool, since orjson and pydantic hold the GIL), and the trusted
+Host check answering with a problem document."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Coroutine
+import asyncio
+import logging
+from collections.abc import Callable, Coroutine, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
+from functools import cache
 from typing import Any
 
 import anyio.to_thread
@@ -12,12 +19,24 @@ import orjson
 from fastapi import Request, Response
 from fastapi.exceptions import RequestValidationError
 from fastapi.routing import APIRoute
+from pydantic import TypeAdapter, ValidationError
 from starlette.exceptions import HTTPException
+from starlette.middleware.trustedhost import TrustedHostMiddleware
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from .problems import Problem, response_for
 
-__all__ = ["BodyLimit", "JsonBodyRoute", "decode_json", "json_depth", "read_json_body"]
+log = logging.getLogger("evomesh.service")
+
+__all__ = [
+    "BodyLimit",
+    "JsonBodyRoute",
+    "TrustedHosts",
+    "body_pool",
+    "decode_json",
+    "json_depth",
+    "read_json_body",
+]
 
 
 class BodyTooLarge(HTTPException):
@@ -145,11 +164,82 @@ def _decode_and_validate(body: bytes, max_depth: int, field: Any) -> Any:
     return model
 
 
-async def read_json_body(request: Request, max_depth: int, field: Any = None) -> None:
+@cache
+def _adapter(annotation: Any) -> TypeAdapter[Any]:
+    return TypeAdapter(annotation)
+
+
+def _validate_in_child(body: bytes, max_depth: int, annotation: Any) -> tuple[str, Any]:
+    """What a pool process answers: ``("ok", value)``, ``("problem", fields)`` or
+    ``("invalid", errors)``; tagged tuples because :class:`Problem` does not survive pickling."""
+    try:
+        value = decode_json(body, max_depth)
+    except Problem as exc:
+        fields = {"kind": exc.kind, "title": exc.title, "headers": exc.headers, **exc.extra}
+        return "problem", (exc.status, exc.detail, fields)
+    if annotation is None:
+        return "ok", value
+    try:
+        # as FastAPI's ModelField.validate does it, so the answers are the same
+        return "ok", _adapter(annotation).validate_python(value, from_attributes=True)
+    except ValidationError as exc:
+        errors = [{**e, "loc": ("body", *e["loc"])} for e in exc.errors(include_url=False)]
+        return "invalid", errors
+
+
+def body_pool(workers: int) -> ProcessPoolExecutor | None:
+    """The processes that decode and validate large bodies (``None`` when ``workers`` is 0).
+    Spawned, not forked: the service runs threads (and numba) that a fork would copy mid-step.
+    They start with the first large body (their imports take a second, off the loop), so a
+    service that is never sent one never pays for them."""
+    if workers <= 0:
+        return None
+    import multiprocessing
+
+    return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"))
+
+
+def _poolable(field: Any) -> Any:
+    """The body's type when a pool process can import it by name, else ``False``."""
+    if field is None:
+        return None
+    annotation = getattr(getattr(field, "field_info", None), "annotation", None)
+    qualname = getattr(annotation, "__qualname__", "<locals>")
+    return False if annotation is None or "<locals>" in qualname else annotation
+
+
+async def _in_pool(
+    pool: ProcessPoolExecutor, body: bytes, max_depth: int, annotation: Any, field: Any
+) -> Any:
+    try:
+        # awaited on the loop: no thread waits for the child
+        tag, payload = await asyncio.wrap_future(
+            pool.submit(_validate_in_child, body, max_depth, annotation)
+        )
+    except BrokenProcessPool:  # a child died (out of memory): this body in a thread, as before
+        log.error("the body process pool is broken; reading bodies in a thread")
+        return await anyio.to_thread.run_sync(_decode_and_validate, body, max_depth, field)
+    if tag == "problem":
+        status, detail, fields = payload
+        raise Problem(status, detail, **fields)
+    if tag == "invalid":
+        raise RequestValidationError(payload, body=None)
+    return payload
+
+
+async def read_json_body(
+    request: Request,
+    max_depth: int,
+    field: Any = None,
+    pool: ProcessPoolExecutor | None = None,
+    pool_bytes: int = 0,
+) -> None:
     """Check, decode and validate (against ``field``, a route's body field) a JSON request body
-    before FastAPI sees it: 415 for another media type, and a large body is decoded and
-    validated in a thread, off the event loop. The result is left where ``request.json()`` finds
-    it; FastAPI's own validation of a model instance then takes no time."""
+    before FastAPI sees it: 415 for another media type; a large body is decoded and validated
+    in a thread, off the event loop, and one of ``pool_bytes`` or more in ``pool`` (the GIL
+    that orjson and pydantic hold would stall the loop's other requests). The result is left
+    where ``request.json()`` finds it; FastAPI's own validation of a model instance then takes
+    no time."""
     body = await request.body()
     if not body:
         return
@@ -162,8 +252,11 @@ async def read_json_body(request: Request, max_depth: int, field: Any = None) ->
             kind="unsupported-media-type",
             headers={"Accept-Post": "application/json"},
         )
+    annotation = _poolable(field)
     if len(body) <= INLINE_BODY_BYTES:
         value = _decode_and_validate(body, max_depth, field)
+    elif pool is not None and len(body) >= pool_bytes and annotation is not False:
+        value = await _in_pool(pool, body, max_depth, annotation, field)
     else:
         value = await anyio.to_thread.run_sync(_decode_and_validate, body, max_depth, field)
     request._json = value  # what Request.json() returns from now on
@@ -180,7 +273,52 @@ class JsonBodyRoute(APIRoute):
 
         async def read_then_handle(request: Request) -> Response:
             settings = request.app.state.settings
-            await read_json_body(request, settings.max_json_depth, self.body_field)
+            await read_json_body(
+                request,
+                settings.max_json_depth,
+                self.body_field,
+                getattr(request.app.state, "body_pool", None),
+                settings.body_pool_bytes,
+            )
             return await handler(request)
 
         return read_then_handle
+
+
+class TrustedHosts:
+    """Starlette's trusted-host check, its refusal a problem document (``untrusted-host``)
+    rather than plain text. The check itself is Starlette's, run as a probe that only marks
+    the scope when the host passes."""
+
+    def __init__(self, app: ASGIApp, allowed_hosts: Sequence[str]) -> None:
+        self.app = app
+        self._probe = TrustedHostMiddleware(_mark_trusted, allowed_hosts, www_redirect=False)
+        self._plain = TrustedHostMiddleware(app, allowed_hosts, www_redirect=False)
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self._plain(scope, receive, send)
+            return
+        probe: Scope = dict(scope)
+        await self._probe(probe, receive, _discard)
+        if probe.get(_TRUSTED):
+            await self.app(scope, receive, send)
+            return
+        problem = Problem(
+            400,
+            "the Host header names a host this service does not answer for",
+            kind="untrusted-host",
+            title="Untrusted host",
+        )
+        await response_for(problem, scope.get("path"))(scope, receive, send)
+
+
+_TRUSTED = "evomesh.trusted_host"
+
+
+async def _mark_trusted(scope: Scope, receive: Receive, send: Send) -> None:
+    scope[_TRUSTED] = True
+
+
+async def _discard(message: Message) -> None:
+    """Where the probe's own plain-text refusal goes."""

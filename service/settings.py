@@ -170,6 +170,20 @@ class Settings(BaseSettings):
         " receiver on the service's own network)",
     )
 
+    body_workers: int = Field(
+        2,
+        ge=0,
+        le=16,
+        description="processes that decode and validate large request bodies, off the API process's"
+        " GIL so other requests keep their answers (0: a thread instead)",
+    )
+    body_pool_bytes: int = Field(
+        1024 * 1024,
+        ge=0,
+        description="bodies of this many bytes or more go to those processes; smaller ones to a"
+        " thread (a process hop costs a copy of the body)",
+    )
+
     @field_validator("api_keys", "cors_origins", "trusted_hosts", mode="before")
     @classmethod
     def _split(cls, value: object) -> object:

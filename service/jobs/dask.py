@@ -124,12 +124,20 @@ class DaskBackend:
         busy = sum(self._jobs.values())
         conn = self._conn
         alive = len(conn.members) if conn is not None and conn.connected else 0
+        # Warm: reported by the workers (-1, not known, when they are not warmed up by us).
+        ready = len(conn.warm & conn.members) if conn is not None and conn.connected else 0
         return BackendStats(
             workers=self.options.workers if self.options.scheduler is None else alive,
             alive=alive,
             busy=busy,
             queued=len(self._jobs) - busy,
+            ready=ready if self.options.warmup else -1,
         )
+
+    def ready_needed(self, stats: BackendStats) -> int:
+        """Warm workers ``/ready`` waits for: all of a local cluster's, and one of a shared
+        cluster's (workers that join it later must not take the service out of rotation)."""
+        return stats.workers if self.options.scheduler is None else min(1, stats.workers)
 
     def worker_addresses(self) -> list[str]:
         """The cluster's workers (for operators and fault tests)."""

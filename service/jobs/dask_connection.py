@@ -27,7 +27,7 @@ import distributed
 from distributed import Client, Event, Future, KilledWorker, as_completed
 
 from .backend import Outcome, OutcomeKind, Task
-from .dask_worker import TOPIC, Warmup, execute, stop_name
+from .dask_worker import TOPIC, Warmup, execute, is_warm, stop_name
 
 __all__ = ["DaskConnection", "DaskOptions"]
 
@@ -94,6 +94,7 @@ class DaskConnection:
         self._to_cancel: list[Future[Any]] = []
         self._flush_scheduled = False
         self.members: set[str] = set()  #: worker addresses
+        self.warm: set[str] = set()  #: addresses of workers that reported their kernels loaded
         self._stale: deque[tuple[float, str]] = deque()  #: (when, key) of stop Events to delete
         self._ac: Any = None  #: as_completed of the current client
         self._more: asyncio.Event | None = None
@@ -226,6 +227,9 @@ class DaskConnection:
                 await client.register_plugin(Warmup(), name="evomesh-warmup")
             except Exception as exc:  # a worker without evomesh: its jobs fail, with the reason
                 log.warning("warming up the Dask workers failed: %s", exc)
+            # Workers warmed before we subscribed (an earlier service) send no event: ask them.
+            replies = await client.run(is_warm, on_error="return")
+            self.warm = {str(a) for a, ok in replies.items() if ok is True}
         self._client = client
         self._ac = as_completed(loop=client.loop)
         self._more = asyncio.Event()
@@ -489,7 +493,9 @@ class DaskConnection:
             return
         kind, key = msg[0], str(msg[1])
         run = self._runs.get(key)
-        if kind == "started":
+        if kind == "warm":  # key: the worker's address
+            self.warm.add(key)
+        elif kind == "started":
             if run is None or run.started or run.finished:
                 # A rerun Dask started on its own (its last worker died, or we let it go):
                 # ours to stop, if the key is ours.
@@ -516,6 +522,7 @@ class DaskConnection:
         elif action == "remove-worker":
             address = str(msg["worker"])
             self.members.discard(address)
+            self.warm.discard(address)
             how = "left the cluster" if msg.get("expected") else "died"
             for run in list(self._runs.values()):
                 if run.started and not run.finished and run.worker == address:

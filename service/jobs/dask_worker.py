@@ -3,13 +3,15 @@
 :func:`execute` runs one task: it reports ``started`` (with the worker's address) and progress
 (rate-limited) as Dask events on :data:`TOPIC`, and hands the runner a ``should_stop`` that asks
 the run's stop :class:`distributed.Event` at most every ``poll`` seconds. Every outcome but the
-worker's death comes back as a value. :class:`Warmup` loads the engine on each worker as it joins.
+worker's death comes back as a value. :class:`Warmup` loads the engine on each worker as it joins
+and then reports ``warm`` on :data:`TOPIC`; :func:`is_warm` answers the same for a worker asked.
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
+import threading
 import time
 from typing import Any
 
@@ -19,7 +21,7 @@ from distributed.diagnostics.plugin import WorkerPlugin
 
 from .backend import TaskError, resolve_runner
 
-__all__ = ["PROGRESS_INTERVAL", "TOPIC", "Warmup", "execute", "stop_name"]
+__all__ = ["PROGRESS_INTERVAL", "TOPIC", "Warmup", "execute", "is_warm", "stop_name"]
 
 #: The Dask event topic workers report on (messages carry the run's key, so services sharing a
 #: scheduler each pick out their own).
@@ -107,6 +109,11 @@ class Warmup(WorkerPlugin):
 
     async def setup(self, worker: distributed.Worker) -> None:
         await asyncio.to_thread(_warm)
+        # The service counts warm workers for /ready; it also asks is_warm when it connects.
+        worker.log_event(TOPIC, ["warm", worker.address])
+
+
+_warmed = threading.Event()
 
 
 def _warm() -> None:
@@ -115,3 +122,9 @@ def _warm() -> None:
     from . import runners  # noqa: F401
 
     engine.warmup()
+    _warmed.set()
+
+
+def is_warm() -> bool:
+    """Whether this worker process has loaded the engine's kernels (run on a worker)."""
+    return _warmed.is_set()

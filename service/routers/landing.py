@@ -88,17 +88,24 @@ async def ready(request: Request) -> dict[str, Any]:
     if not manager.backend.alive():
         raise Problem(503, "no worker is alive", headers={"Retry-After": "5"})
     stats = manager.backend.stats()
-    if 0 <= stats.ready < stats.workers:
+    # A backend may need fewer warm workers than it has (a shared Dask cluster: one).
+    needed = getattr(manager.backend, "ready_needed", lambda s: s.workers)(stats)
+    if 0 <= stats.ready < max(needed, 1):
         # A job handed to a cold worker would wait for its kernels to compile.
         raise Problem(
             503,
-            f"{stats.ready} of {stats.workers} workers have warmed up",
+            f"{stats.ready} of {stats.workers} workers have warmed up (waiting for {needed})",
             headers={"Retry-After": "5"},
         )
     return {
         "status": "ready",
         "backend": manager.backend.name,
-        "workers": {"configured": stats.workers, "alive": stats.alive, "busy": stats.busy},
+        "workers": {
+            "configured": stats.workers,
+            "alive": stats.alive,
+            "busy": stats.busy,
+            "warm": stats.ready,  # -1: the backend does not know
+        },
         "queued": stats.queued,
     }
 

@@ -133,3 +133,16 @@ async def test_cors_when_origins_are_configured(make_client: ClientFactory) -> N
 async def test_unknown_routes_and_methods_are_problems(client: httpx.AsyncClient) -> None:
     assert_problem(await client.get("/nowhere"), 404)
     assert_problem(await client.put("/jobs"), 405)
+
+
+async def test_an_untrusted_host_is_a_problem(make_client: ClientFactory) -> None:
+    client = await make_client(trusted_hosts="testserver,*.example.org")
+    for host in ("evil.example", "example.org.evil.example", "", "[::1"):
+        r = await client.get("/health", headers={"Host": host})
+        doc = assert_problem(r, 400, "untrusted-host")
+        assert doc["instance"] == "/health"
+        assert "evil" not in r.text
+    r = await client.post("/processes/mesh/execution", json={}, headers={"Host": "x.evil"})
+    assert_problem(r, 400, "untrusted-host")
+    assert (await client.get("/health", headers={"Host": "api.example.org"})).status_code == 200
+    assert (await client.get("/health")).status_code == 200

@@ -120,3 +120,51 @@ async def test_without_a_scheduler_the_service_starts_a_local_cluster(
     inputs = {"boundary": SQUARE, "size": 0.5, "smoothing": {"method": "none"}}
     job = await submit(client, "mesh", inputs)
     assert (await wait_for(client, job["jobID"], timeout=60))["status"] == "successful"
+
+
+async def test_ready_reports_warm_dask_workers(dask_client: DaskClient) -> None:
+    client = await dask_client()
+    with anyio.fail_after(120):  # a worker an earlier test killed may still be warming up
+        while True:
+            workers = (await client.get("/ready")).json()["workers"]
+            assert 1 <= workers["warm"] <= workers["alive"]  # ready: one warm worker is enough
+            if (workers["alive"], workers["warm"]) == (2, 2):
+                break
+            await anyio.sleep(0.05)
+
+
+async def test_ready_waits_for_a_warm_dask_worker(tmp_path: Path) -> None:
+    from distributed import Client
+
+    from service.app import create_app
+    from service.jobs.dask_worker import is_warm
+
+    from .clusters import local_cluster
+    from .conftest import TEST_PROCESSES, make_settings
+
+    cluster = local_cluster(0)
+    try:
+        settings = make_settings(tmp_path, backend="dask", scheduler=cluster.scheduler_address)
+        app = create_app(settings, processes=TEST_PROCESSES)
+        transport = httpx.ASGITransport(app=app)
+        async with (
+            app.router.lifespan_context(app),
+            httpx.AsyncClient(transport=transport, base_url="http://testserver") as client,
+            Client(cluster.scheduler_address, asynchronous=True) as dask,
+        ):
+            assert_problem(await client.get("/ready"), 503)  # no worker at all
+            cluster.scale(1)
+            with anyio.fail_after(180):
+                while True:
+                    # Asked before /ready: a worker cold then is (all but) surely cold for it.
+                    warm = await dask.run(is_warm, on_error="return")
+                    r = await client.get("/ready")
+                    if warm and not any(v is True for v in warm.values()):
+                        assert_problem(r, 503)
+                    if r.status_code == 200:
+                        break
+                    await anyio.sleep(0.02)
+            assert r.json()["workers"]["warm"] == 1
+            assert all(v is True for v in (await dask.run(is_warm)).values())
+    finally:
+        cluster.close()
