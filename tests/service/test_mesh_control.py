@@ -33,7 +33,11 @@ def test_the_estimate_stops_counting_past_the_cap() -> None:
     square = engine.make_region([([[0, 0], [1, 0], [1, 1], [0, 1]], [])])
     sizing = engine.SizingParams(1e-4)  # about 2.3e8 triangles in all
     capped = estimate_mesh(square, sizing, cap=1000)
-    assert 1000 < capped < 10**6
+    # A capped estimate only says "over the cap": here the plain-size area bound already passes
+    # it, so the engine answers that bound without counting (tests/engine/test_estimate.py counts
+    # the field evaluations: none).
+    assert capped > 1000
+    assert capped <= 1.1 * 1.0 / (np.sqrt(3) / 4 * 1e-4**2)
 
 
 async def test_admission_passes_the_triangle_limit_as_the_cap(
