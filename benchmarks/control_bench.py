@@ -44,6 +44,7 @@ def ours(geometry: dict[str, Any]) -> tuple[Mesh, float]:
 
 def theirs(geometry: dict[str, Any]) -> tuple[Mesh, float]:
     import gmsh
+    from gmsh_read import gmsh_triangles
 
     gmsh.initialize(["-nt", "1"])
     try:
@@ -87,17 +88,10 @@ def theirs(geometry: dict[str, Any]) -> tuple[Mesh, float]:
         t0 = time.perf_counter()
         gmsh.model.mesh.generate(2)
         seconds = time.perf_counter() - t0
-        tags, xyz, _ = gmsh.model.mesh.getNodes()
-        index = np.zeros(int(tags.max()) + 1, dtype=np.int64)
-        index[tags.astype(np.int64)] = np.arange(len(tags))
-        _, nodes = gmsh.model.mesh.getElementsByType(2)
-        tri = index[nodes.astype(np.int64)].reshape(-1, 3)
+        mesh = gmsh_triangles()
     finally:
         gmsh.finalize()
-    points = xyz.reshape(-1, 3)[:, :2]
-    flip = Mesh(points, tri).areas < 0
-    tri[flip] = tri[flip][:, ::-1]
-    return Mesh(points, tri), seconds
+    return mesh, seconds
 
 
 def figures(mesh: Mesh, seconds: float) -> dict[str, float]:

@@ -194,6 +194,7 @@ def run_graded(rows: list[dict[str, float | str]]) -> None:
 def gmsh_mesh(region: Region, field: SizeField, background: Mesh | None) -> tuple[Mesh, float]:
     """Mesh ``region`` with gmsh algorithm 6 on ``field`` (via ``background`` when graded)."""
     import gmsh
+    from gmsh_read import gmsh_triangles
 
     gmsh.initialize(["-nt", "1"])
     try:
@@ -229,18 +230,10 @@ def gmsh_mesh(region: Region, field: SizeField, background: Mesh | None) -> tupl
         t0 = time.perf_counter()
         gmsh.model.mesh.generate(2)
         seconds = time.perf_counter() - t0
-        tags, coords, _ = gmsh.model.mesh.getNodes()
-        index = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
-        index[tags.astype(np.int64)] = np.arange(len(tags))
-        _, nodes = gmsh.model.mesh.getElementsByType(2)
-        triangles = index[nodes.astype(np.int64)].reshape(-1, 3)
+        mesh = gmsh_triangles()
     finally:
         gmsh.finalize()
-    points = coords.reshape(-1, 3)[:, :2]
-    mesh = Mesh(points, triangles)
-    flip = mesh.areas < 0
-    triangles[flip] = triangles[flip][:, ::-1]
-    return Mesh(points, triangles), seconds
+    return mesh, seconds
 
 
 def figures(mesh: Mesh, seconds: float) -> dict[str, float]:

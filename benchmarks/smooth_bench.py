@@ -137,6 +137,7 @@ def gmsh_mesh(
     of generate + optimize alone (not the geometry set-up)."""
     try:
         import gmsh
+        from gmsh_read import gmsh_triangles
     except ImportError:
         return None
     gmsh.initialize(readConfigFiles=False)
@@ -144,14 +145,13 @@ def gmsh_mesh(
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.model.add("case")
         geo = gmsh.model.geo
-        surfaces = []
         for part in region.parts:
             loops = []
             for ring in part.rings:
                 pts = [geo.addPoint(float(x), float(y), 0.0, h) for x, y in ring]
                 lines = [geo.addLine(pts[i], pts[(i + 1) % len(pts)]) for i in range(len(pts))]
                 loops.append(geo.addCurveLoop(lines))
-            surfaces.append(geo.addPlaneSurface(loops))
+            geo.addPlaneSurface(loops)
         geo.synchronize()
         gmsh.option.setNumber("Mesh.Algorithm", 6)  # Frontal-Delaunay
         gmsh.option.setNumber("Mesh.MeshSizeMax", h)
@@ -160,22 +160,7 @@ def gmsh_mesh(
         gmsh.model.mesh.optimize("Relocate2D")
         if timing is not None:
             timing["seconds"] = time.perf_counter() - t0
-        tags, coords, _ = gmsh.model.mesh.getNodes()
-        xy = coords.reshape(-1, 3)[:, :2]
-        index = {int(t): i for i, t in enumerate(tags)}
-        tris = []
-        for s in surfaces:
-            types, _, nodes = gmsh.model.mesh.getElements(2, s)
-            for kind, conn in zip(types, nodes, strict=True):
-                if kind == 2:
-                    tris.append(np.array([index[int(t)] for t in conn]).reshape(-1, 3))
-        tri = np.concatenate(tris)
-        a, b, c = xy[tri[:, 0]], xy[tri[:, 1]], xy[tri[:, 2]]
-        cross = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (
-            c[:, 0] - a[:, 0]
-        )
-        tri[cross < 0] = tri[cross < 0][:, ::-1]
-        return Mesh(np.ascontiguousarray(xy), tri)
+        return gmsh_triangles()
     finally:
         gmsh.finalize()
 
