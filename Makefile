@@ -10,8 +10,8 @@ STAMP := $(VENV)/.installed
 TEST_STAMP := $(VENV)/.test-installed
 # Debian packages the test suite needs (installed when missing and run as root): chromium for
 # the web viewer's end-to-end tests (headless, driven over its DevTools pipe), curl for the
-# docs' HTTP examples.
-APT_PACKAGES := chromium curl
+# docs' HTTP examples, openssl for the Dask TLS test's certificate.
+APT_PACKAGES := chromium curl openssl
 # Debian libraries the gmsh wheel links against (for the side-by-side benchmarks).
 BENCH_APT_PACKAGES := libglu1-mesa libxcursor1 libxft2 libxinerama1 libgomp1
 PYTEST_ARGS ?=
