@@ -160,14 +160,19 @@ def calibrate(target: float) -> float:
     """The unit-square size whose ``mesh`` job takes about ``target`` seconds here (the job's
     time grows with its triangles, about 1 / size^2)."""
     import engine
-    from service.jobs import runners
+    from service import processes
+    from service.processes import PROCESSES, inputs_at
+    from service.settings import Settings
 
     engine.warmup()
     size = 0.008
+    mesh = PROCESSES["mesh"]
     for _ in range(3):
         inputs = {"boundary": SQUARE, "size": size, "growth": 1.2, "swap": True}
+        model = mesh.inputs_model.model_validate({**inputs, "smoothing": {"method": "none"}})
+        prepared = mesh.prepare(model, Settings(_env_file=None), inputs_at("/inputs"))
         t0 = time.perf_counter()
-        runners.mesh({**inputs, "smoothing": {"method": "none"}}, _quiet, _never)
+        processes.run("mesh", prepared.inputs, _quiet, _never)
         size *= math.sqrt((time.perf_counter() - t0) / target)
     return round(size, 5)
 

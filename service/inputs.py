@@ -1,4 +1,6 @@
-"""Request models: the inputs of each process and the OGC execute request around them.
+"""Request models shared by the processes: the smoothing input, a mesh document input, a
+refinement, and the OGC execute request around a process's inputs (whose own models live in
+:mod:`service.processes`).
 
 The OGC process descriptions are generated from these models, so the documentation cannot drift
 from validation. Defaults come from the engine's parameter dataclasses; the smoothing methods and
@@ -13,26 +15,26 @@ from typing import Annotated, Any, Literal
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field
 
 import engine
-from engine import SizingParams, SmoothingParams
+from engine import SmoothingParams
 from engine.params import SELECTIONS
 
 __all__ = [
     "BOUNDARY_SCHEMA",
+    "MAX_REFINEMENTS",
+    "SMOOTHING_DEFAULTS",
+    "STRICT",
     "ExecuteRequest",
+    "Fitness",
     "MeshDocumentInput",
-    "MeshExecute",
-    "MeshInputs",
-    "QualityExecute",
-    "QualityInputs",
     "RefinementInput",
-    "SmoothExecute",
-    "SmoothInputs",
     "SmoothingInput",
+    "Subscriber",
 ]
 
-_S = SmoothingParams()
+#: The engine's smoothing defaults (the inputs' defaults).
+SMOOTHING_DEFAULTS = SmoothingParams()
 #: Unknown members are errors, and numbers are numbers: "0.1" or true is not a size.
-_STRICT = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
+STRICT = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
 
 _POSITION = {"type": "array", "items": {"type": "number"}, "minItems": 2, "maxItems": 3}
 _RING = {"type": "array", "items": _POSITION, "minItems": 3}
@@ -124,34 +126,55 @@ Fitness = Annotated[
 class SmoothingInput(BaseModel):
     """Smoothing parameters (the paper's GA defaults) and the random seed."""
 
-    model_config = _STRICT
+    model_config = STRICT
 
-    method: Method = _S.method
-    fitness: Fitness = _S.fitness
-    alpha: float = Field(_S.alpha, ge=0, le=1, description="weight of the angle term")
-    beta: float = Field(_S.beta, ge=0, le=1, description="weight of the aspect-ratio term")
-    population: int = Field(_S.population, ge=2, le=10_000, description="candidates per node")
-    generations: int = Field(_S.generations, ge=1, le=10_000, description="generations per node")
-    crossover_rate: float = Field(_S.crossover_rate, ge=0, le=1)
-    mutation_rate: float = Field(_S.mutation_rate, ge=0, le=1)
+    # validate_default: the default method may not be installed; refused here, in one place
+    method: Method = Field(SMOOTHING_DEFAULTS.method, validate_default=True)
+    fitness: Fitness = SMOOTHING_DEFAULTS.fitness
+    alpha: float = Field(
+        SMOOTHING_DEFAULTS.alpha, ge=0, le=1, description="weight of the angle term"
+    )
+    beta: float = Field(
+        SMOOTHING_DEFAULTS.beta, ge=0, le=1, description="weight of the aspect-ratio term"
+    )
+    population: int = Field(
+        SMOOTHING_DEFAULTS.population, ge=2, le=10_000, description="candidates per node"
+    )
+    generations: int = Field(
+        SMOOTHING_DEFAULTS.generations, ge=1, le=10_000, description="generations per node"
+    )
+    crossover_rate: float = Field(SMOOTHING_DEFAULTS.crossover_rate, ge=0, le=1)
+    mutation_rate: float = Field(SMOOTHING_DEFAULTS.mutation_rate, ge=0, le=1)
     patience: int | None = Field(
-        _S.patience,
+        SMOOTHING_DEFAULTS.patience,
         ge=1,
         le=10_000,
         description="stop a node's GA after this many generations without gain (null: never)",
     )
-    tolerance: float = Field(_S.tolerance, ge=0, description="stop when a sweep changes less")
-    max_sweeps: int = Field(_S.max_sweeps, ge=1, le=10_000, description="most GA sweeps")
-    iterations: int = Field(_S.iterations, ge=1, le=10_000, description="Laplacian sweeps")
+    tolerance: float = Field(
+        SMOOTHING_DEFAULTS.tolerance, ge=0, description="stop when a sweep changes less"
+    )
+    max_sweeps: int = Field(
+        SMOOTHING_DEFAULTS.max_sweeps, ge=1, le=10_000, description="most GA sweeps"
+    )
+    iterations: int = Field(
+        SMOOTHING_DEFAULTS.iterations, ge=1, le=10_000, description="Laplacian sweeps"
+    )
     threshold: float | None = Field(
-        _S.threshold, ge=0, le=1, description="evolve only nodes with fitness below this"
+        SMOOTHING_DEFAULTS.threshold,
+        ge=0,
+        le=1,
+        description="evolve only nodes with fitness below this",
     )
     selection: Literal[SELECTIONS] = Field(  # type: ignore[valid-type]
-        _S.selection,
+        SMOOTHING_DEFAULTS.selection,
         description="which nodes the GA evolves: poor (of poorly shaped triangles) or all",
     )
     poor_quality: float = Field(
-        _S.poor_quality, ge=0, le=1, description="shape quality below which a triangle is poor"
+        SMOOTHING_DEFAULTS.poor_quality,
+        ge=0,
+        le=1,
+        description="shape quality below which a triangle is poor",
     )
     seed: int | None = Field(
         None,
@@ -161,9 +184,6 @@ class SmoothingInput(BaseModel):
     )
 
 
-_SIZING = SizingParams(size=1.0)
-
-
 #: The most refinements a ``mesh`` request may list.
 MAX_REFINEMENTS = 1000
 
@@ -171,82 +191,12 @@ MAX_REFINEMENTS = 1000
 class RefinementInput(BaseModel):
     """A local size: ``size`` on and near ``geometry``."""
 
-    model_config = _STRICT
+    model_config = STRICT
 
     geometry: dict[str, Any] = Field(
         description="a GeoJSON Point, LineString, Polygon, their Multi* forms or a collection"
     )
     size: float = Field(gt=0, description="the edge length asked for on the geometry")
-
-
-class MeshInputs(BaseModel):
-    """Inputs of the ``mesh`` process.
-
-    Every result is tagged: boundary edges by ring (``outer``, ``hole-k``, prefixed with the
-    Feature's ``properties.name``) and by the runs its ``properties.tags`` names, triangles by
-    region. A FeatureCollection or MultiPolygon whose polygons share edges is meshed as
-    subdomains, each at its own ``h``. ``refinements`` and ``constraints`` are documented below.
-    """
-
-    model_config = _STRICT
-
-    boundary: Any = Field(json_schema_extra=BOUNDARY_SCHEMA)
-    crs: str | None = Field(
-        None,
-        min_length=1,
-        max_length=20_000,
-        description=(
-            "coordinate reference system of the boundary: any CRS pyproj reads (EPSG:4326, "
-            "OGC:CRS84, EPSG:32633, a URN, WKT or PROJ string); default: the boundary's legacy "
-            "GeoJSON crs member, else planar. Lon/lat is meshed in metres in a local projection "
-            "(sizes in metres) and results come back in this CRS"
-        ),
-    )
-    coordinates: Literal["planar", "wgs84"] = Field(
-        "planar", description='wgs84: lon/lat (an alias of crs "OGC:CRS84")'
-    )
-    size: float | None = Field(
-        None,
-        gt=0,
-        description="target edge length (metres for lon/lat); default: the Feature's `h` property",
-    )
-    growth: float = Field(_SIZING.growth, gt=1, le=100, description="largest neighbour size ratio")
-    size_min: float | None = Field(None, gt=0, description="lower clamp of the local size")
-    size_max: float | None = Field(None, gt=0, description="upper clamp of the local size")
-    swap: bool = Field(True, description="improve connectivity by diagonal swapping")
-    smoothing: SmoothingInput = Field(default_factory=SmoothingInput)
-    refinements: list[RefinementInput] = Field(
-        default_factory=list,
-        max_length=MAX_REFINEMENTS,
-        description=(
-            "local sizes: the size near each geometry is its `size`, growing away from it at"
-            " `growth` (inside a Polygon: `size`); combined with the region's sizing by the"
-            " minimum. Coordinates as the boundary's (planar only); their vertices count"
-            " against the boundary-vertex limit"
-        ),
-    )
-    constraints: Any = Field(
-        None,
-        description=(
-            "a GeoJSON geometry or FeatureCollection of (Multi)LineStrings and (Multi)Points"
-            " inside the region: lines become chains of mesh edges tagged with their Feature's"
-            " `name`, points become mesh nodes; neither moves nor is swapped away (planar only)"
-        ),
-    )
-    resample: bool = Field(
-        False,
-        description=(
-            "re-discretise the rings to the local size instead of keeping every vertex (for"
-            " digitised boundaries): corners stay, the meshed boundary stays within"
-            " `resample_tolerance` of the input; the result's summary.boundary.max_deviation"
-            " reports the largest distance"
-        ),
-    )
-    resample_tolerance: float | None = Field(
-        None,
-        gt=0,
-        description="with `resample`, the largest distance allowed (default 0.1 of the size)",
-    )
 
 
 Index = Annotated[int, Field(ge=0, le=2**31 - 1)]
@@ -270,27 +220,6 @@ class MeshDocumentInput(BaseModel):
     triangles: list[Annotated[list[Index], Field(min_length=3, max_length=3)]] = Field(min_length=1)
     points_local: list[Annotated[list[float], Field(min_length=2, max_length=2)]] | None = None
     projected: ProjectedPoints | None = None
-
-
-class SmoothInputs(BaseModel):
-    """Inputs of the ``smooth`` process."""
-
-    model_config = _STRICT
-
-    mesh: MeshDocumentInput
-    swap: bool = Field(True, description="improve connectivity by diagonal swapping first")
-    smoothing: SmoothingInput = Field(default_factory=SmoothingInput)
-
-
-class QualityInputs(BaseModel):
-    """Inputs of the ``quality`` process."""
-
-    model_config = _STRICT
-
-    mesh: MeshDocumentInput
-    fitness: Fitness = _S.fitness
-    alpha: float = Field(_S.alpha, ge=0, le=1)
-    beta: float = Field(_S.beta, ge=0, le=1)
 
 
 def _callback_uri(value: str) -> str:
@@ -326,15 +255,3 @@ class ExecuteRequest(BaseModel):
     outputs: dict[str, Any] | None = None
     response: Literal["document", "raw"] | None = None
     subscriber: Subscriber | None = None
-
-
-class MeshExecute(ExecuteRequest):
-    inputs: MeshInputs
-
-
-class SmoothExecute(ExecuteRequest):
-    inputs: SmoothInputs
-
-
-class QualityExecute(ExecuteRequest):
-    inputs: QualityInputs

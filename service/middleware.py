@@ -31,10 +31,12 @@ log = logging.getLogger("evomesh.service")
 __all__ = [
     "BodyLimit",
     "JsonBodyRoute",
+    "Then",
     "TrustedHosts",
     "body_pool",
     "decode_json",
     "json_depth",
+    "problem_fields",
     "read_json_body",
 ]
 
@@ -169,22 +171,43 @@ def _adapter(annotation: Any) -> TypeAdapter[Any]:
     return TypeAdapter(annotation)
 
 
-def _validate_in_child(body: bytes, max_depth: int, annotation: Any) -> tuple[str, Any]:
-    """What a pool process answers: ``("ok", value)``, ``("problem", fields)`` or
-    ``("invalid", errors)``; tagged tuples because :class:`Problem` does not survive pickling."""
+#: A step run on a large body's validated value in the pool process, after validation:
+#: ``then(value) -> (value FastAPI gets, what the handler finds in request.state.prepared)``;
+#: it must pickle (a module-level function or a partial of one).
+Then = Callable[[Any], tuple[Any, Any]]
+
+
+def problem_fields(exc: Problem) -> tuple[int, str, dict[str, Any]]:
+    """A problem as a tuple that pickles (:class:`Problem` does not survive pickling)."""
+    fields = {
+        "kind": exc.kind,
+        "title": exc.title,
+        "pointer": exc.pointer,
+        "errors": exc.errors,
+        "headers": exc.headers,
+        **exc.extra,
+    }
+    return exc.status, exc.detail, fields
+
+
+def _validate_in_child(
+    body: bytes, max_depth: int, annotation: Any, then: Then | None = None
+) -> tuple[str, Any]:
+    """What a pool process answers: ``("ok", value)`` (``then``'s pair when given),
+    ``("problem", fields)`` or ``("invalid", errors)``; tagged tuples because :class:`Problem`
+    does not survive pickling."""
     try:
         value = decode_json(body, max_depth)
     except Problem as exc:
-        fields = {"kind": exc.kind, "title": exc.title, "headers": exc.headers, **exc.extra}
-        return "problem", (exc.status, exc.detail, fields)
-    if annotation is None:
-        return "ok", value
-    try:
-        # as FastAPI's ModelField.validate does it, so the answers are the same
-        return "ok", _adapter(annotation).validate_python(value, from_attributes=True)
-    except ValidationError as exc:
-        errors = [{**e, "loc": ("body", *e["loc"])} for e in exc.errors(include_url=False)]
-        return "invalid", errors
+        return "problem", problem_fields(exc)
+    if annotation is not None:
+        try:
+            # as FastAPI's ModelField.validate does it, so the answers are the same
+            value = _adapter(annotation).validate_python(value, from_attributes=True)
+        except ValidationError as exc:
+            errors = [{**e, "loc": ("body", *e["loc"])} for e in exc.errors(include_url=False)]
+            return "invalid", errors
+    return "ok", value if then is None else then(value)
 
 
 def body_pool(workers: int) -> ProcessPoolExecutor | None:
@@ -209,16 +232,22 @@ def _poolable(field: Any) -> Any:
 
 
 async def _in_pool(
-    pool: ProcessPoolExecutor, body: bytes, max_depth: int, annotation: Any, field: Any
+    pool: ProcessPoolExecutor,
+    body: bytes,
+    max_depth: int,
+    annotation: Any,
+    field: Any,
+    then: Then | None = None,
 ) -> Any:
     try:
         # awaited on the loop: no thread waits for the child
         tag, payload = await asyncio.wrap_future(
-            pool.submit(_validate_in_child, body, max_depth, annotation)
+            pool.submit(_validate_in_child, body, max_depth, annotation, then)
         )
     except BrokenProcessPool:  # a child died (out of memory): this body in a thread, as before
         log.error("the body process pool is broken; reading bodies in a thread")
-        return await anyio.to_thread.run_sync(_decode_and_validate, body, max_depth, field)
+        value = await anyio.to_thread.run_sync(_decode_and_validate, body, max_depth, field)
+        return value if then is None else (value, None)
     if tag == "problem":
         status, detail, fields = payload
         raise Problem(status, detail, **fields)
@@ -233,11 +262,13 @@ async def read_json_body(
     field: Any = None,
     pool: ProcessPoolExecutor | None = None,
     pool_bytes: int = 0,
+    then: Then | None = None,
 ) -> None:
     """Check, decode and validate (against ``field``, a route's body field) a JSON request body
     before FastAPI sees it: 415 for another media type; a large body is decoded and validated
     in a thread, off the event loop, and one of ``pool_bytes`` or more in ``pool`` (the GIL
-    that orjson and pydantic hold would stall the loop's other requests). The result is left
+    that orjson and pydantic hold would stall the loop's other requests), followed there by
+    ``then`` (whose second value is left in ``request.state.prepared``). The result is left
     where ``request.json()`` finds it; FastAPI's own validation of a model instance then takes
     no time."""
     body = await request.body()
@@ -256,7 +287,9 @@ async def read_json_body(
     if len(body) <= INLINE_BODY_BYTES:
         value = _decode_and_validate(body, max_depth, field)
     elif pool is not None and len(body) >= pool_bytes and annotation is not False:
-        value = await _in_pool(pool, body, max_depth, annotation, field)
+        value = await _in_pool(pool, body, max_depth, annotation, field, then)
+        if then is not None:
+            value, request.state.prepared = value
     else:
         value = await anyio.to_thread.run_sync(_decode_and_validate, body, max_depth, field)
     request._json = value  # what Request.json() returns from now on
@@ -265,6 +298,12 @@ async def read_json_body(
 class JsonBodyRoute(APIRoute):
     """A route whose JSON body is read by :func:`read_json_body` (depth limit, media type,
     decoding off the loop, syntax errors with line and column)."""
+
+    def pool_step(self, request: Request) -> Then | None:
+        """What a pool process does with this route's large body after validating it (see
+        :func:`read_json_body`); none by default."""
+        del request
+        return None
 
     def get_route_handler(self) -> Callable[[Request], Coroutine[Any, Any, Response]]:
         handler = super().get_route_handler()
@@ -279,6 +318,7 @@ class JsonBodyRoute(APIRoute):
                 self.body_field,
                 getattr(request.app.state, "body_pool", None),
                 settings.body_pool_bytes,
+                self.pool_step(request),
             )
             return await handler(request)
 

@@ -1,42 +1,76 @@
-"""``evomesh mesh``, ``evomesh smooth`` and ``evomesh quality``: the engine on local files."""
+"""``evomesh mesh``, ``evomesh smooth`` and ``evomesh quality``: the processes on local files.
+
+Each command builds the process's own inputs model from its flags (generated from the model)
+and runs the same ``prepare`` and ``execute`` as a job of the service, with no limits but the
+engine's own; a refused input is one line naming the input at fault.
+"""
 
 from __future__ import annotations
 
 import argparse
 import json
 import sys
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
-import numpy as np
+from pydantic import BaseModel, ValidationError
 
 import engine
-from engine import EngineError, PipelineParams, SizingParams, SmoothingParams
+from engine import EngineError, SmoothingParams
 
-from ..control import local_payload, refinements_of
-from ..control import run_mesh as run_engine
-from ..document import cell_data, mesh_from_document, result_document
 from ..formats import EXTENSIONS, FORMATS, StoredResult
 from ..geo import read_region_file
-from ..geojson import BoundaryInputError, parse_region, region_crs
+from ..geojson import BoundaryInputError
 from ..inputs import SmoothingInput
+from ..problems import Problem
+from ..processes import inputs_at, mesh, quality, smooth
+from ..settings import Settings
 from .control_flags import add_control_flags, control_inputs
 from .files import output_format, read_mesh, say, write_output
-from .model_flags import GA_FLAGS, add_model_flags, model_values
+from .model_flags import GA_FLAGS, MESH_FLAGS, add_model_flags, model_values
 from .progress import StageBar
 
 #: Errors that are the user's, printed on one line with exit code 2.
 USER_ERRORS = (EngineError, BoundaryInputError, ValueError, OSError, json.JSONDecodeError)
 
+#: Inputs are found at the top level of what the flags give (``/size``, ``/refinements/0``).
+WHERE = inputs_at("")
 
-def _positive(kind: type) -> Any:
-    def check(text: str) -> Any:
-        value = kind(text)
-        if not value > 0:
-            raise argparse.ArgumentTypeError(f"must be positive, got {text}")
-        return value
+M = TypeVar("M", bound=BaseModel)
+T = TypeVar("T")
 
-    return check
+
+def _local_limits() -> Settings:
+    """No limits on local files but the engine's own (its triangle limit)."""
+    unbounded = 2**62
+    return Settings(
+        _env_file=None,
+        max_vertices=unbounded,
+        max_rings=unbounded,
+        max_triangles=engine.PipelineParams(engine.SizingParams(1.0)).max_triangles,
+        max_ga_work=1e300,
+        ga_rate=1e300,
+    )
+
+
+def _model(model: type[M], values: dict[str, Any]) -> M:
+    """``values`` checked by the API's own model; its first error as a one-line ValueError."""
+    try:
+        return model.model_validate(values)
+    except ValidationError as exc:
+        first = exc.errors(include_url=False)[0]
+        where = "".join(f"/{part}" for part in first["loc"])
+        raise ValueError(f"{where}: {first['msg']}") from None
+
+
+def _prepared(prepare: Callable[[M, Settings, Any], tuple[T, int]], inputs: M) -> T:
+    """The typed request of ``inputs``; a refusal as a one-line ValueError naming the input."""
+    try:
+        request, _ = prepare(inputs, _local_limits(), WHERE)
+    except Problem as exc:
+        raise ValueError(f"{exc.pointer}: {exc.detail}" if exc.pointer else exc.detail) from None
+    return request
 
 
 def _add_smoothing_flags(p: argparse.ArgumentParser, method_flag: str) -> None:
@@ -94,15 +128,7 @@ def register(sub: Any) -> None:
         help="GeoJSON or JSON file ('-' for standard input), or .gpkg/.shp/.kml (needs pyogrio)",
     )
     p.add_argument("--layer", help="the layer of a multi-layer file (default: the first)")
-    p.add_argument(
-        "--crs",
-        help="CRS of the region (EPSG:4326, EPSG:32633, WKT, PROJ...); default: the file's own, "
-        "else planar. Lon/lat is meshed in metres (sizes in metres); results are in this CRS",
-    )
-    p.add_argument("--size", type=_positive(float), help="target edge length (default: h property)")
-    p.add_argument("--growth", type=float, default=1.2)
-    p.add_argument("--size-min", type=_positive(float))
-    p.add_argument("--size-max", type=_positive(float))
+    add_model_flags(p, mesh.MeshInputs, MESH_FLAGS)
     p.add_argument("--wgs84", action="store_true", help="coordinates are lon/lat (--crs OGC:CRS84)")
     add_control_flags(p)
     _add_smoothing_flags(p, "--smooth")
@@ -127,11 +153,9 @@ def _read_json(path: str) -> Any:
     return json.loads(text)
 
 
-def _smoothing(args: argparse.Namespace) -> SmoothingParams:
-    """The engine's parameters from the flags, checked by the API's own model."""
-    values = SmoothingInput(**model_values(args, SmoothingInput)).model_dump()
-    values.pop("seed")
-    return SmoothingParams(**values)
+def _smoothing(args: argparse.Namespace) -> dict[str, Any]:
+    """The smoothing input the flags give (checked with the rest of the inputs)."""
+    return model_values(args, SmoothingInput)
 
 
 def _write(doc: dict[str, Any], args: argparse.Namespace) -> None:
@@ -146,35 +170,21 @@ def run_mesh(args: argparse.Namespace) -> int:
     else:
         found = read_region_file(args.region, layer=args.layer)
         boundary, file_crs = found.geojson, found.crs
-    crs = region_crs(boundary, args.crs or file_crs, "wgs84" if args.wgs84 else "planar")
-    parsed = parse_region(boundary, crs=crs)
-    size = args.size if args.size is not None else parsed.properties.get("h")
-    if size is None:
-        raise ValueError("no --size given and the input has no 'h' property")
-    if parsed.projection is not None and parsed.projection.geographic:
-        parsed = parse_region(boundary, crs=crs, densify=float(size))  # follow lon/lat edges
-    payload = local_payload(boundary, parsed, control_inputs(args))
-    params = PipelineParams(
-        sizing=SizingParams(
-            float(size),
-            args.growth,
-            args.size_min,
-            args.size_max,
-            refinements_of(payload["refinements"]),
-            resample=args.resample,
-            resample_tolerance=args.resample_tolerance,
-        ),
+    values = {name: getattr(args, name) for name in MESH_FLAGS}
+    values.update(
+        boundary=boundary,
+        crs=args.crs or file_crs,
+        coordinates="wgs84" if args.wgs84 else "planar",
         swap=not args.no_swap,
         smoothing=_smoothing(args),
+        **control_inputs(args),
     )
+    request = _prepared(mesh.prepare, _model(mesh.MeshInputs, values))
     with StageBar() as progress:  # a bar on a terminal, once the run takes a while
-        rng = np.random.default_rng(args.seed)
-        result, tags = run_engine(payload, parsed.region, params, rng, progress, lambda: False)
-        doc = result_document(result, parsed.crs(), tags=tags)
-        doc["summary"]["parameters"]["seed"] = args.seed
+        doc = mesh.execute(request, progress, lambda: False)
         progress("write", 0.0)
         _write(doc, args)
-    s = result.smoothed.summary
+    s = doc["summary"]["smoothed"]
     say(
         f"{s['count']} triangles, {s['points']} points, min angle {s['min_angle']['min']:.1f} deg, "
         f"min quality {s['quality']['min']:.3f} -> {args.output}",
@@ -185,14 +195,14 @@ def run_mesh(args: argparse.Namespace) -> int:
 
 def run_smooth(args: argparse.Namespace) -> int:
     output_format(args.output, args.format)
-    mesh = mesh_from_document(read_mesh(args.mesh, args.input_format))
-    result = engine.smooth_mesh(
-        mesh, _smoothing(args), swap=not args.no_swap, rng=np.random.default_rng(args.seed)
-    )
-    doc = result_document(result)
-    doc["summary"]["parameters"]["seed"] = args.seed
+    values = {
+        "mesh": read_mesh(args.mesh, args.input_format),
+        "swap": not args.no_swap,
+        "smoothing": _smoothing(args),
+    }
+    doc = smooth.execute(_prepared(smooth.prepare, _model(smooth.SmoothInputs, values)))
     _write(doc, args)
-    a, b = result.initial.summary, result.smoothed.summary
+    a, b = doc["summary"]["initial"], doc["summary"]["smoothed"]
     angles = f"{a['min_angle']['min']:.1f} -> {b['min_angle']['min']:.1f} deg"
     say(
         f"min quality {a['quality']['min']:.3f} -> {b['quality']['min']:.3f}, "
@@ -203,14 +213,18 @@ def run_smooth(args: argparse.Namespace) -> int:
 
 
 def run_quality(args: argparse.Namespace) -> int:
-    mesh = mesh_from_document(read_mesh(args.mesh, args.input_format))
-    fitness = SmoothingParams(fitness=args.fitness, alpha=args.alpha, beta=args.beta)
-    snap = engine.assess_mesh(mesh, fitness)
+    values = {
+        "mesh": read_mesh(args.mesh, args.input_format),
+        "fitness": args.fitness,
+        "alpha": args.alpha,
+        "beta": args.beta,
+    }
+    doc = quality.execute(_prepared(quality.prepare, _model(quality.QualityInputs, values)))
+    s = doc["summary"]["mesh"]
     if args.json:
-        doc = {"summary": snap.summary, "cell_data": cell_data(snap)}
-        print(json.dumps(doc | {"point_data": {"fitness": snap.fitness.tolist()}}))
+        fitness = {"fitness": doc["point_data"]["fitness"]}
+        print(json.dumps({"summary": s, "cell_data": doc["cell_data"], "point_data": fitness}))
         return 0
-    s = snap.summary
     print(f"triangles      {s['count']}")
     print(f"points         {s['points']}")
     for key in engine.METRICS:

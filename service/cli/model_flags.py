@@ -19,7 +19,7 @@ from pydantic.fields import FieldInfo
 
 from ..inputs import SmoothingInput
 
-__all__ = ["GA_FLAGS", "add_model_flags", "model_values"]
+__all__ = ["GA_FLAGS", "MESH_FLAGS", "add_model_flags", "model_values"]
 
 #: The smoothing input's fields offered as flags of their own (method, fitness and seed have
 #: hand-written flags: their names or defaults differ between commands).
@@ -28,6 +28,10 @@ GA_FLAGS = [
     for name in SmoothingInput.model_fields
     if name not in {"method", "fitness", "alpha", "beta", "seed"}
 ]
+
+#: The mesh input's sizing fields offered as flags of their own (the boundary is the command's
+#: argument; swap, lon/lat, smoothing, refinements and constraints have flags of their own).
+MESH_FLAGS = ["crs", "size", "growth", "size_min", "size_max"]
 
 
 def _parser(kind: Any, nullable: bool) -> Callable[[str], Any]:
@@ -72,7 +76,7 @@ def add_model_flags(
         help_text = info.description or name.replace("_", " ")
         if defaults:
             help_text += f" (default {'none' if default is None else default})"
-        if nullable:
+        if nullable and default is not None:  # then null means "no limit"
             help_text += "; 'none' for no limit"
         p.add_argument(
             "--" + name.replace("_", "-"),

@@ -2,6 +2,8 @@
 default, synchronous with ``Prefer: wait=N``)."""
 
 from collections.abc import Callable
+from dataclasses import dataclass
+from functools import partial
 from typing import Annotated, Any, TypeVar
 
 import anyio.to_thread
@@ -14,10 +16,11 @@ from ..formats import FORMATS
 from ..inputs import ExecuteRequest
 from ..jobs.manager import request_digest
 from ..jobs.store import IdempotencyConflict
-from ..middleware import JsonBodyRoute
-from ..problems import Problem
-from ..processes import PROCESSES, Process, inputs_at
+from ..middleware import JsonBodyRoute, Then, problem_fields
+from ..problems import Problem, problem_for
+from ..processes import PROCESSES, Prepared, Process, inputs_at
 from ..schemas import ProcessDescription, ProcessList, StatusInfo
+from ..settings import Settings
 from ..sync import output_format, preference, render_output, wait_final
 from ..views import base_url, link, status_info
 
@@ -141,6 +144,71 @@ _EXECUTE_RESPONSES: dict[int | str, dict[str, Any]] = {
 }
 
 
+@dataclass(frozen=True)
+class Admission:
+    """A large body's admission, made in a body pool process: the prepared job or the problem
+    that refuses it, and the request's digest (when an Idempotency-Key asks for one)."""
+
+    prepared: Prepared | None
+    problem: tuple[int, str, dict[str, Any]] | None = None
+    digest: str | None = None
+
+    def result(self) -> Prepared:
+        """The prepared job, or the problem raised (where preparing in place would raise it)."""
+        if self.problem is not None:
+            status, detail, fields = self.problem
+            raise Problem(status, detail, **fields)
+        assert self.prepared is not None
+        return self.prepared
+
+
+def admit_body(
+    process_id: str,
+    prepare: Callable[[Any, Settings, Any], Prepared],
+    settings: Settings,
+    digest: bool,
+    body: ExecuteRequest,
+) -> tuple[ExecuteRequest, Admission]:
+    """Run in a body pool process after validation: the whole admission of an execute request
+    (parse, check the limits, estimate), so the event loop only writes the row. Returns the
+    request without its inputs (all the handler reads of it) and the :class:`Admission`."""
+    try:
+        prepared = prepare(body.inputs, settings, inputs_at("/inputs"))
+    except Exception as exc:
+        problem = problem_for(exc)
+        if problem.status >= 500:
+            raise  # a bug: answered as one, as in place
+        admission = Admission(None, problem_fields(problem))
+    else:
+        # The validated request (its depth bounded by the body reader), not the raw bytes: the
+        # same JSON value in another key order is the same request.
+        hashed = request_digest(process_id, body.model_dump(mode="json")) if digest else None
+        admission = Admission(prepared, digest=hashed)
+    # The inputs stay here: pickling them back would cost what the pool saved the loop.
+    envelope = type(body).model_construct(
+        inputs=None,  # type: ignore[arg-type]
+        outputs=body.outputs,
+        response=body.response,
+        subscriber=body.subscriber,
+    )
+    return envelope, admission
+
+
+class ExecuteRoute(JsonBodyRoute):
+    """An execution route: a large body is admitted whole in the body pool (:func:`admit_body`)."""
+
+    process: Process
+
+    def pool_step(self, request: Request) -> Then | None:
+        process = self.process
+        keyed = "idempotency-key" in request.headers
+        return partial(admit_body, process.id, process.prepare, request.app.state.settings, keyed)
+
+
+def _route_class(process: Process) -> type[ExecuteRoute]:
+    return type(f"Execute{process.id.title()}Route", (ExecuteRoute,), {"process": process})
+
+
 def _execute_route(router: APIRouter, process: Process) -> None:
     model = process.execute_model
 
@@ -159,16 +227,20 @@ def _execute_route(router: APIRouter, process: Process) -> None:
         callbacks: CallbackNotifier = request.app.state.callbacks
         if request_body.subscriber is not None:
             callbacks.check(request_body.subscriber)
-        prepared = await off_loop(
-            process.prepare, request_body.inputs, settings, inputs_at("/inputs")
-        )
-        # The validated request (its depth bounded by the body reader), not the raw bytes: the
-        # same JSON value in another key order is the same request.
-        digest = (
-            request_digest(process.id, request_body.model_dump(mode="json"))
-            if idempotency_key
-            else None
-        )
+        admitted: Admission | None = getattr(request.state, "prepared", None)
+        if admitted is not None:  # a large body, admitted in the body pool
+            prepared, digest = admitted.result(), admitted.digest
+        else:
+            prepared = await off_loop(
+                process.prepare, request_body.inputs, settings, inputs_at("/inputs")
+            )
+            # The validated request (its depth bounded by the body reader), not the raw
+            # bytes: the same JSON value in another key order is the same request.
+            digest = (
+                request_digest(process.id, request_body.model_dump(mode="json"))
+                if idempotency_key
+                else None
+            )
         try:
             record, created = manager.submit(
                 process,
@@ -215,6 +287,7 @@ def _execute_route(router: APIRouter, process: Process) -> None:
         response_model=None,
         responses=_EXECUTE_RESPONSES,
         operation_id=f"execute_{process.id}",
+        route_class_override=_route_class(process),
     )
 
 

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import engine
-from service.jobs import runners
+from service import processes
 from service.jobs.backend import TaskError
 from service.problems import Problem, problem_for
 from service.processes import PROCESSES, estimate_mesh, inputs_at
@@ -69,9 +69,9 @@ def test_the_worker_enforces_the_services_triangle_limit_on_the_real_mesh() -> N
         "max_triangles": 50,  # the engine's own default is 5,000,000
     }
     with pytest.raises(TaskError, match="limit of 50"):
-        runners.mesh(payload, lambda p, m: None, lambda: False)
+        processes.run("mesh", payload, lambda p, m: None, lambda: False)
     payload["max_triangles"] = 100_000
-    _, figures = runners.mesh(payload, lambda p, m: None, lambda: False)
+    _, figures = processes.run("mesh", payload, lambda p, m: None, lambda: False)
     assert figures["triangles"] > 50
 
 

@@ -3,12 +3,15 @@ service keeps answering meanwhile, and the client gets the same answers as from 
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import anyio
 import httpx
 import orjson
 import pytest
+
+from service.routers import processes as processes_router
 
 from .conftest import ClientFactory, assert_problem
 
@@ -120,3 +123,69 @@ async def test_a_large_valid_body_is_accepted_through_the_pool(make_client: Clie
     client = await make_client(body_workers=1, body_pool_bytes=0)
     r = await client.post("/processes/quality/execution", json=_large())
     assert r.status_code == 201, r.text
+
+
+def _bowtie_body(vertices: int) -> bytes:
+    """A large ``mesh`` request whose ring crosses itself: refused after validation."""
+    ring = [
+        [math.cos(2 * math.pi * k / vertices), math.sin(2 * math.pi * k / vertices)]
+        for k in range(vertices)
+    ]
+    ring[10], ring[vertices // 2] = ring[vertices // 2], ring[10]
+    boundary = {"type": "Polygon", "coordinates": [ring]}
+    return orjson.dumps({"inputs": {"boundary": boundary, "size": 0.1}})
+
+
+def _inverted_body(side: int) -> bytes:
+    mesh = grid_mesh(side)
+    a, b, c = mesh["triangles"][7]
+    mesh["triangles"][7] = [a, c, b]
+    return orjson.dumps({"inputs": {"mesh": mesh}})
+
+
+#: Large bodies refused after validation, by the admission a pool process runs (issue 13's
+#: missed item: the whole admission of a large body runs there).
+REFUSED_BY_ADMISSION = {
+    "crossing ring": ("mesh", _bowtie_body(4000)),
+    "inverted triangle": ("quality", _inverted_body(60)),
+    "over a limit": ("smooth", orjson.dumps(_large(80))),
+}
+
+
+async def test_the_pools_admission_answers_as_the_thread_does(make_client: ClientFactory) -> None:
+    limits = {"max_triangles": 10_000}
+    pooled = await make_client(body_workers=1, body_pool_bytes=0, **limits)
+    threaded = await make_client(body_workers=0, **limits)
+    for name, (process, body) in REFUSED_BY_ADMISSION.items():
+        assert len(body) > 64 * 1024
+        answers = [
+            await c.post(
+                f"/processes/{process}/execution",
+                content=body,
+                headers={"Content-Type": "application/json"},
+            )
+            for c in (pooled, threaded)
+        ]
+        assert answers[0].status_code == 422, (name, answers[0].text)
+        assert answers[0].json() == answers[1].json(), name
+
+
+async def test_a_large_body_is_admitted_in_the_pool_not_in_the_api_process(
+    make_client: ClientFactory, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    client = await make_client(body_workers=1, body_pool_bytes=0)
+
+    async def nowhere(*args: Any) -> Any:
+        raise AssertionError("prepared in the API process")
+
+    monkeypatch.setattr(processes_router, "off_loop", nowhere)
+    body = {"inputs": {"mesh": grid_mesh(60), "smoothing": {"method": "laplacian", "seed": 3}}}
+    key = {"Idempotency-Key": "large-1"}
+    first = await client.post("/processes/smooth/execution", json=body, headers=key)
+    assert first.status_code == 201, first.text
+    again = await client.post("/processes/smooth/execution", json=body, headers=key)
+    assert again.headers["Idempotent-Replayed"] == "true"
+    assert again.headers["Location"] == first.headers["Location"]
+    other = {"inputs": {**body["inputs"], "smoothing": {"method": "laplacian", "seed": 4}}}
+    conflict = await client.post("/processes/smooth/execution", json=other, headers=key)
+    assert_problem(conflict, 422)

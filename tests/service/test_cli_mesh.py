@@ -71,7 +71,10 @@ def test_outer_holes_json_and_stdin(tmp_path: Path) -> None:
         ),
         ('{"type": "Polygon", "coordinates": [[[0,0],[1,0]]]}', "fewer than 3"),
         ("not json", "Expecting value"),
-        ('{"type": "Polygon", "coordinates": [[[0,0],[1,0],[1,1],[0,0]]]}', "no --size"),
+        (
+            '{"type": "Polygon", "coordinates": [[[0,0],[1,0],[1,1],[0,0]]]}',
+            "/size: size is required",
+        ),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(tmp_path: Path, content: str, message: str) -> None:

@@ -10,7 +10,8 @@ import orjson
 import pytest
 
 from engine.pipeline import STAGE_WORDS
-from service.jobs import runners
+from service import processes
+from service.jobs.runners import unpack
 from service.processes import PROCESSES, inputs_at
 from service.settings import Settings
 
@@ -31,8 +32,8 @@ def _stored(inputs: dict[str, Any], process: str = "mesh") -> dict[str, Any]:
 
 def _run(process: str, payload: dict[str, Any]) -> tuple[dict[str, Any], list[tuple[int, str]]]:
     seen: list[tuple[int, str]] = []
-    data, _ = getattr(runners, process)(payload, lambda p, m: seen.append((p, m)), lambda: False)
-    doc: dict[str, Any] = orjson.loads(runners.unpack(data))
+    data, _ = processes.run(process, payload, lambda p, m: seen.append((p, m)), lambda: False)
+    doc: dict[str, Any] = orjson.loads(unpack(data))
     return doc, seen
 
 
