@@ -30,66 +30,8 @@ __all__ = [
     "triangle_cap",
 ]
 
-_MESH_OUTPUT = {
-    "mesh": {
-        "title": "mesh document",
-        "description": (
-            "points, counter-clockwise 0-based triangles, per-node fitness, per-triangle "
-            "quality figures and the summary of every stage; GET /jobs/{jobID}/results?f= "
-            "json | geojson | vtu | msh | svg | png"
-        ),
-        "schema": {
-            "type": "object",
-            "contentMediaType": "application/json",
-            "required": ["points", "triangles", "point_data", "cell_data", "summary"],
-        },
-    }
-}
-
 #: The processes by id.
-PROCESSES: dict[str, Process] = {
-    p.id: p
-    for p in (
-        Process(
-            id="mesh",
-            title="Mesh a region",
-            description=(
-                "Mesh a planar region with holes by advancing front, swap diagonals, then smooth "
-                "interior nodes (genetic algorithm by default). Boundaries and regions are "
-                "tagged (properties.name, properties.tags); polygons sharing edges are meshed as "
-                "subdomains; refinements and constraints control sizes and keep lines and points."
-            ),
-            inputs_model=mesh.MeshInputs,
-            execute_model=mesh.MeshExecute,
-            runner="service.processes.mesh:run",
-            prepare=mesh.admit,
-            keywords=("mesh", "triangulation", "advancing front", "genetic algorithm"),
-            outputs=_MESH_OUTPUT,
-        ),
-        Process(
-            id="smooth",
-            title="Smooth a mesh",
-            description="Swap diagonals and move the interior nodes of an existing mesh.",
-            inputs_model=smooth.SmoothInputs,
-            execute_model=smooth.SmoothExecute,
-            runner="service.processes.smooth:run",
-            prepare=smooth.admit,
-            keywords=("mesh", "smoothing", "genetic algorithm"),
-            outputs=_MESH_OUTPUT,
-        ),
-        Process(
-            id="quality",
-            title="Assess a mesh",
-            description="Per-triangle quality, per-node fitness and summary figures of a mesh.",
-            inputs_model=quality.QualityInputs,
-            execute_model=quality.QualityExecute,
-            runner="service.processes.quality:run",
-            prepare=quality.admit,
-            keywords=("mesh", "quality"),
-            outputs=_MESH_OUTPUT,
-        ),
-    )
-}
+PROCESSES: dict[str, Process] = {p.id: p for p in (mesh.PROCESS, smooth.PROCESS, quality.PROCESS)}
 
 _RUNNERS: dict[str, Runner] = {"mesh": mesh.run, "smooth": smooth.run, "quality": quality.run}
 

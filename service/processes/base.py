@@ -28,6 +28,7 @@ from ..problems import Problem
 from ..settings import Settings
 
 __all__ = [
+    "MESH_OUTPUT",
     "Prepared",
     "Process",
     "Request",
@@ -275,6 +276,23 @@ def run_task(execute: Callable[[], dict[str, Any]]) -> tuple[bytes, dict[str, An
     }
     return data, figures
 
+
+#: The output every process gives: a mesh document.
+MESH_OUTPUT: dict[str, Any] = {
+    "mesh": {
+        "title": "mesh document",
+        "description": (
+            "points, counter-clockwise 0-based triangles, per-node fitness, per-triangle "
+            "quality figures and the summary of every stage; GET /jobs/{jobID}/results?f= "
+            "json | geojson | vtu | msh | svg | png"
+        ),
+        "schema": {
+            "type": "object",
+            "contentMediaType": "application/json",
+            "required": ["points", "triangles", "point_data", "cell_data", "summary"],
+        },
+    }
+}
 
 #: A worker entry point: ``(payload, progress, should_stop) -> (data, figures)``.
 Runner = Callable[[dict[str, Any], ProgressCallback, Callable[[], bool]], tuple[bytes, Any]]

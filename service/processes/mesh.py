@@ -45,7 +45,9 @@ from ..jobs.runners import _job_progress
 from ..problems import Problem
 from ..settings import Settings
 from .base import (
+    MESH_OUTPUT,
     Prepared,
+    Process,
     Where,
     check_ga_work,
     check_limit,
@@ -60,6 +62,7 @@ from .base import (
 
 __all__ = [
     "LENGTH_RANGE",
+    "PROCESS",
     "MeshExecute",
     "MeshInputs",
     "MeshRequest",
@@ -406,3 +409,22 @@ def run(
         return execute(request, _job_progress(progress, request.smoothing), should_stop)
 
     return run_task(job)
+
+
+#: The process as the OGC API offers it.
+PROCESS = Process(
+    id="mesh",
+    title="Mesh a region",
+    description=(
+        "Mesh a planar region with holes by advancing front, swap diagonals, then smooth "
+        "interior nodes (genetic algorithm by default). Boundaries and regions are "
+        "tagged (properties.name, properties.tags); polygons sharing edges are meshed as "
+        "subdomains; refinements and constraints control sizes and keep lines and points."
+    ),
+    inputs_model=MeshInputs,
+    execute_model=MeshExecute,
+    runner="service.processes.mesh:run",
+    prepare=admit,
+    keywords=("mesh", "triangulation", "advancing front", "genetic algorithm"),
+    outputs=MESH_OUTPUT,
+)

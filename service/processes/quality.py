@@ -16,9 +16,17 @@ from ..inputs import SMOOTHING_DEFAULTS, STRICT, ExecuteRequest, Fitness, MeshDo
 from ..jobs.backend import ProgressCallback
 from ..problems import Problem
 from ..settings import Settings
-from .base import Prepared, Where, check_mesh, mesh_only, run_task
+from .base import MESH_OUTPUT, Prepared, Process, Where, check_mesh, mesh_only, run_task
 
-__all__ = ["QualityExecute", "QualityInputs", "QualityRequest", "execute", "prepare", "run"]
+__all__ = [
+    "PROCESS",
+    "QualityExecute",
+    "QualityInputs",
+    "QualityRequest",
+    "execute",
+    "prepare",
+    "run",
+]
 
 
 class QualityInputs(BaseModel):
@@ -100,3 +108,17 @@ def run(
         return execute(request)
 
     return run_task(job)
+
+
+#: The process as the OGC API offers it.
+PROCESS = Process(
+    id="quality",
+    title="Assess a mesh",
+    description="Per-triangle quality, per-node fitness and summary figures of a mesh.",
+    inputs_model=QualityInputs,
+    execute_model=QualityExecute,
+    runner="service.processes.quality:run",
+    prepare=admit,
+    keywords=("mesh", "quality"),
+    outputs=MESH_OUTPUT,
+)

@@ -21,7 +21,9 @@ from ..jobs.backend import ProgressCallback
 from ..jobs.runners import _job_progress
 from ..settings import Settings
 from .base import (
+    MESH_OUTPUT,
     Prepared,
+    Process,
     Where,
     check_ga_work,
     check_mesh,
@@ -33,7 +35,7 @@ from .base import (
     with_seed,
 )
 
-__all__ = ["SmoothExecute", "SmoothInputs", "SmoothRequest", "execute", "prepare", "run"]
+__all__ = ["PROCESS", "SmoothExecute", "SmoothInputs", "SmoothRequest", "execute", "prepare", "run"]
 
 
 class SmoothInputs(BaseModel):
@@ -114,3 +116,17 @@ def run(
         return execute(request, report, should_stop)
 
     return run_task(job)
+
+
+#: The process as the OGC API offers it.
+PROCESS = Process(
+    id="smooth",
+    title="Smooth a mesh",
+    description="Swap diagonals and move the interior nodes of an existing mesh.",
+    inputs_model=SmoothInputs,
+    execute_model=SmoothExecute,
+    runner="service.processes.smooth:run",
+    prepare=admit,
+    keywords=("mesh", "smoothing", "genetic algorithm"),
+    outputs=MESH_OUTPUT,
+)
