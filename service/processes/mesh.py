@@ -205,7 +205,7 @@ class MeshRequest:
             resample_tolerance=payload.get("resample_tolerance"),
         )
         return cls(
-            parts=list(payload["parts"]),
+            parts=[(outer, holes) for outer, holes in payload["parts"]],
             crs=payload.get("crs"),
             sizing=sizing,
             swap=bool(payload["swap"]),
