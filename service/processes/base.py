@@ -33,6 +33,7 @@ __all__ = [
     "Process",
     "Request",
     "Where",
+    "admitted",
     "check_ga_work",
     "check_limit",
     "check_mesh",
@@ -79,6 +80,11 @@ class Prepared:
     inputs: dict[str, Any]  #: the typed request as JSON (defaults and seed filled in)
     seed: int | None
     triangles: int  #: estimated size of the result
+
+
+def admitted(request: Request, triangles: int) -> Prepared:
+    """A prepared request as the job store keeps it."""
+    return Prepared(request.to_json(), request.seed, triangles)
 
 
 @dataclass(frozen=True)

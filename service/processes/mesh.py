@@ -49,6 +49,7 @@ from .base import (
     Prepared,
     Process,
     Where,
+    admitted,
     check_ga_work,
     check_limit,
     count_rings,
@@ -66,6 +67,7 @@ __all__ = [
     "MeshExecute",
     "MeshInputs",
     "MeshRequest",
+    "admit",
     "estimate_mesh",
     "execute",
     "prepare",
@@ -378,8 +380,7 @@ def prepare(inputs: MeshInputs, settings: Settings, where: Where) -> tuple[MeshR
 
 def admit(inputs: MeshInputs, settings: Settings, where: Where) -> Prepared:
     """:func:`prepare` as the job store keeps it."""
-    request, triangles = prepare(inputs, settings, where)
-    return Prepared(request.to_json(), request.seed, triangles)
+    return admitted(*prepare(inputs, settings, where))
 
 
 def execute(

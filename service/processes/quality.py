@@ -16,13 +16,14 @@ from ..inputs import SMOOTHING_DEFAULTS, STRICT, ExecuteRequest, Fitness, MeshDo
 from ..jobs.backend import ProgressCallback
 from ..problems import Problem
 from ..settings import Settings
-from .base import MESH_OUTPUT, Prepared, Process, Where, check_mesh, mesh_only, run_task
+from .base import MESH_OUTPUT, Prepared, Process, Where, admitted, check_mesh, mesh_only, run_task
 
 __all__ = [
     "PROCESS",
     "QualityExecute",
     "QualityInputs",
     "QualityRequest",
+    "admit",
     "execute",
     "prepare",
     "run",
@@ -78,8 +79,7 @@ def prepare(inputs: QualityInputs, settings: Settings, where: Where) -> tuple[Qu
 
 def admit(inputs: QualityInputs, settings: Settings, where: Where) -> Prepared:
     """:func:`prepare` as the job store keeps it."""
-    request, triangles = prepare(inputs, settings, where)
-    return Prepared(request.to_json(), None, triangles)
+    return admitted(*prepare(inputs, settings, where))
 
 
 def execute(request: QualityRequest) -> dict[str, Any]:

@@ -25,6 +25,7 @@ from .base import (
     Prepared,
     Process,
     Where,
+    admitted,
     check_ga_work,
     check_mesh,
     mesh_only,
@@ -35,7 +36,16 @@ from .base import (
     with_seed,
 )
 
-__all__ = ["PROCESS", "SmoothExecute", "SmoothInputs", "SmoothRequest", "execute", "prepare", "run"]
+__all__ = [
+    "PROCESS",
+    "SmoothExecute",
+    "SmoothInputs",
+    "SmoothRequest",
+    "admit",
+    "execute",
+    "prepare",
+    "run",
+]
 
 
 class SmoothInputs(BaseModel):
@@ -84,8 +94,7 @@ def prepare(inputs: SmoothInputs, settings: Settings, where: Where) -> tuple[Smo
 
 def admit(inputs: SmoothInputs, settings: Settings, where: Where) -> Prepared:
     """:func:`prepare` as the job store keeps it."""
-    request, triangles = prepare(inputs, settings, where)
-    return Prepared(request.to_json(), request.seed, triangles)
+    return admitted(*prepare(inputs, settings, where))
 
 
 def execute(
