@@ -1,7 +1,9 @@
 """Event-loop stall benchmark: how long ``/health`` goes unanswered while a large body is read.
 
 A real server on loopback is sent a ~25 MB ``quality`` request (a 600 x 600 grid mesh) while a
-second client asks ``/health`` back to back. Prints, for the body read in a thread
+second client asks ``/health`` back to back: refused by validation, refused by admission (an
+inverted triangle: read and checked after validation, in the body pool since issue 13's missed
+item), and accepted. Prints, for the body read in a thread
 (``EVOMESH_BODY_WORKERS=0``, the old way) and in the body process pool, the longest gap
 between two ``/health`` answers while the POST was in flight and how many answers came. Traffic
 only to 127.0.0.1. Prints, does not assert.
@@ -32,13 +34,17 @@ from tests.e2e.server import Server  # noqa: E402 - after the path set-up
 from tests.service.test_body_pool import grid_mesh  # noqa: E402 - the tests' grid mesh
 
 
-def grid_body(side: int, refused: bool = False) -> bytes:
+def grid_body(side: int, refused: bool = False, inverted: bool = False) -> bytes:
     """A ``quality`` request for a side x side grid of points with non-round coordinates;
-    ``refused``: its last triangle index a string, so validation walks it all, then says 422."""
+    ``refused``: its last triangle index a string, so validation walks it all, then says 422;
+    ``inverted``: its last triangle turned over, so it passes validation and admission (the
+    mesh read and checked) refuses it with 422."""
     mesh = grid_mesh(side)
     triangles = mesh["triangles"]
     if refused:
         triangles[-1][2] = "7"
+    if inverted:
+        triangles[-1][1], triangles[-1][2] = triangles[-1][2], triangles[-1][1]
     return orjson.dumps({"inputs": {"mesh": mesh}})
 
 
@@ -77,7 +83,11 @@ def main() -> None:
     parser.add_argument("--side", type=int, default=600)
     parser.add_argument("--repeat", type=int, default=2)
     args = parser.parse_args()
-    bodies = {"refused (422)": grid_body(args.side, True), "accepted (201)": grid_body(args.side)}
+    bodies = {
+        "refused (422)": grid_body(args.side, True),
+        "admission 422": grid_body(args.side, inverted=True),
+        "accepted (201)": grid_body(args.side),
+    }
     print(f"body: {len(bodies['accepted (201)']) / 1e6:.1f} MB")
     rows: list[dict[str, Any]] = []
     for label, workers in (("thread (before)", "0"), ("process pool (after)", "2")):
