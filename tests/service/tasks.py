@@ -12,7 +12,7 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field
 
 from service.inputs import ExecuteRequest
-from service.jobs.backend import ProgressCallback, TaskError
+from service.jobs.task import ProgressCallback, TaskError
 from service.processes import Prepared, Process, Where
 from service.settings import Settings
 

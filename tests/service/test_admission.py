@@ -13,7 +13,7 @@ import pytest
 
 import engine
 from service.jobs import runners
-from service.jobs.backend import TaskError
+from service.jobs.task import TaskError
 from service.problems import Problem, problem_for
 from service.processes import PROCESSES, estimate_mesh, inputs_at
 from service.settings import Settings
