@@ -25,23 +25,13 @@ import logging
 import pickle
 import threading
 import time
-from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-from ..task import (
-    Outcome,
-    OutcomeKind,
-    Task,
-    handover_failed,
-    queued_cancel,
-    run_task,
-    settle,
-    stopped,
-    throttled,
-)
+from ..task import Outcome, OutcomeKind, Task, run_task, settle, stopped, throttled
 from .base import BackendStats, Events
+from .queued import QueuedBackend
 
 __all__ = ["InlineBackend"]
 
@@ -63,7 +53,7 @@ class _Run:
     started: float = field(default_factory=time.perf_counter)
 
 
-class InlineBackend:
+class InlineBackend(QueuedBackend):
     """A :class:`~service.jobs.backends.base.ComputeBackend` on a thread of this process.
 
     ``warmup`` loads the engine's kernels before the first task (in a thread: the service
@@ -74,24 +64,19 @@ class InlineBackend:
     name = "inline"
 
     def __init__(self, *, cancel_grace: float = 10.0, warmup: bool = True) -> None:
+        super().__init__()
         self.cancel_grace = cancel_grace
         self.warmup = warmup
-        self._queue: deque[Task] = deque()
         self._run: _Run | None = None
-        self._events: Events | None = None
-        self._loop: asyncio.AbstractEventLoop | None = None
         self._ready = False
-        self._closing = False
         self._warming: asyncio.Task[None] | None = None
 
     # -- lifecycle -----------------------------------------------------------------------------
     async def start(self, events: Events) -> None:
-        self._events = events
-        self._loop = asyncio.get_running_loop()
-        self._closing = False
+        loop = self._begin(events)
         self._ready = not self.warmup
         if self.warmup:
-            self._warming = self._loop.create_task(self._warm())
+            self._warming = loop.create_task(self._warm())
 
     async def _warm(self) -> None:
         import engine
@@ -117,26 +102,8 @@ class InlineBackend:
             if run.thread is not None:
                 await asyncio.to_thread(run.thread.join, CLOSE_WAIT)
 
-    def _require_loop(self) -> asyncio.AbstractEventLoop:
-        if self._loop is None or self._events is None:
-            raise RuntimeError("the backend is not started")
-        return self._loop
-
     # -- tasks ---------------------------------------------------------------------------------
-    def submit(self, task: Task) -> None:
-        self._require_loop()
-        if self._closing:
-            raise RuntimeError("the backend is closing")
-        self._queue.append(task)
-        self._dispatch()
-
-    def cancel(self, job_id: str) -> None:
-        loop = self._require_loop()
-        for task in self._queue:
-            if task.job_id == job_id:
-                self._queue.remove(task)
-                loop.call_soon(self._report, job_id, queued_cancel())
-                return
+    def _stop_running(self, job_id: str) -> None:
         if self._run is not None and self._run.task.job_id == job_id:
             self._stop(self._run, OutcomeKind.cancelled)
 
@@ -153,18 +120,14 @@ class InlineBackend:
             ready=alive if self._ready else 0,
         )
 
-    def _report(self, job_id: str, outcome: Outcome) -> None:
-        if self._events is not None and not self._closing:
-            self._events.finished(job_id, outcome)
-
     def _dispatch(self) -> None:
         """Start the next task that can be handed over, if nothing runs."""
         while self._run is None and self._ready and self._queue and not self._closing:
             task = self._queue.popleft()
             try:
                 payload = pickle.loads(pickle.dumps(task.payload, pickle.HIGHEST_PROTOCOL))
-            except Exception as exc:  # RecursionError, PicklingError...: the task's fault
-                self._require_loop().call_soon(self._report, task.job_id, handover_failed(exc))
+            except Exception as exc:  # RecursionError, PicklingError...
+                self._refuse(task, exc)
                 continue
             run = self._run = _Run(task)
             run.thread = threading.Thread(

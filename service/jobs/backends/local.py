@@ -26,7 +26,6 @@ import os
 import signal
 import threading
 import time
-from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
@@ -34,17 +33,9 @@ from multiprocessing.process import BaseProcess
 from multiprocessing.reduction import ForkingPickler
 from typing import Any
 
-from ..task import (
-    Outcome,
-    OutcomeKind,
-    Task,
-    handover_failed,
-    queued_cancel,
-    run_task,
-    settle,
-    throttled,
-)
+from ..task import Outcome, OutcomeKind, Task, run_task, settle, throttled
 from .base import BackendStats, Events
+from .queued import QueuedBackend
 
 __all__ = ["LocalBackend"]
 
@@ -189,7 +180,7 @@ class _Watcher:
             return  # closed: the sentinel reports the death
 
 
-class LocalBackend:
+class LocalBackend(QueuedBackend):
     """A :class:`~service.jobs.backends.base.ComputeBackend` of local worker processes.
 
     ``warmup`` makes each new worker compile/load the engine's kernels before its first task;
@@ -210,27 +201,21 @@ class LocalBackend:
             raise ValueError("workers must be at least 1")
         if not 0 <= nice <= 19:
             raise ValueError("nice must be between 0 and 19")
+        super().__init__()
         self.workers = workers
         self.cancel_grace = cancel_grace
         self.warmup = warmup
         self.nice = nice
         self._ctx = _context()
         self._pool: list[_Worker] = []
-        self._queue: deque[Task] = deque()
         self._tokens = itertools.count(1)
-        self._events: Events | None = None
-        self._loop: asyncio.AbstractEventLoop | None = None
         self._watcher: _Watcher | None = None
-        self._closing = False
         self._spawning = 0
         self._spawns: set[asyncio.Task[None]] = set()
 
     # -- lifecycle -----------------------------------------------------------------------------
     async def start(self, events: Events) -> None:
-        self._events = events
-        self._loop = asyncio.get_running_loop()
-        self._closing = False
-        self._watcher = _Watcher(self._loop, self._handle, self._died)
+        self._watcher = _Watcher(self._begin(events), self._handle, self._died)
         await asyncio.gather(*(self._spawn() for _ in range(self.workers)))
 
     async def _spawn(self) -> None:
@@ -286,26 +271,8 @@ class LocalBackend:
                 worker.conn.close()
             worker.process.close()
 
-    def _require_loop(self) -> asyncio.AbstractEventLoop:
-        if self._loop is None or self._events is None:
-            raise RuntimeError("the backend is not started")
-        return self._loop
-
     # -- tasks ---------------------------------------------------------------------------------
-    def submit(self, task: Task) -> None:
-        self._require_loop()
-        if self._closing:
-            raise RuntimeError("the backend is closing")
-        self._queue.append(task)
-        self._dispatch()
-
-    def cancel(self, job_id: str) -> None:
-        loop = self._require_loop()
-        for task in self._queue:
-            if task.job_id == job_id:
-                self._queue.remove(task)
-                loop.call_soon(self._report, job_id, queued_cancel())
-                return
+    def _stop_running(self, job_id: str) -> None:
         for worker in self._pool:
             if worker.task is not None and worker.task.job_id == job_id:
                 self._stop(worker, OutcomeKind.cancelled)
@@ -335,10 +302,6 @@ class LocalBackend:
         """Process ids of the workers (for operators and fault tests)."""
         return [w.process.pid for w in self._pool if w.process.pid is not None]
 
-    def _report(self, job_id: str, outcome: Outcome) -> None:
-        if self._events is not None:
-            self._events.finished(job_id, outcome)
-
     def _dispatch(self) -> None:
         if self._closing:
             return
@@ -356,8 +319,8 @@ class LocalBackend:
             token = next(self._tokens)
             try:
                 message = ForkingPickler.dumps((token, task))
-            except Exception as exc:  # RecursionError, PicklingError...: the task's fault
-                self._require_loop().call_soon(self._report, task.job_id, handover_failed(exc))
+            except Exception as exc:  # RecursionError, PicklingError...
+                self._refuse(task, exc)
                 continue
             worker.task, worker.token = task, token
             worker.started, worker.stopping = time.perf_counter(), None
