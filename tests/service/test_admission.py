@@ -183,8 +183,9 @@ async def test_an_untrusted_host_is_refused(make_client: ClientFactory, tmp_path
 
 
 async def test_a_job_waits_for_a_warm_worker_and_ready_says_so(
-    client: httpx.AsyncClient,
+    make_client: ClientFactory,
 ) -> None:
+    client = await make_client(backend="local")  # worker processes, which warm up
     ready = (await client.get("/ready")).json()  # the fixture waited for /ready
     manager = client.app.state.manager  # type: ignore[attr-defined]
     stats = manager.backend.stats()
