@@ -26,6 +26,15 @@ def echo(
     return repr(payload).encode(), {"pid": os.getpid()}
 
 
+def scribble(
+    payload: dict[str, Any], progress: ProgressCallback, should_stop: Stop
+) -> tuple[bytes, dict[str, Any]]:
+    """Change the payload it was handed, and say what it saw."""
+    payload.setdefault("items", []).append("scribbled")
+    payload["seen"] = True
+    return repr(payload).encode(), {}
+
+
 def sleepy(
     payload: dict[str, Any], progress: ProgressCallback, should_stop: Stop
 ) -> tuple[bytes, dict[str, Any]]:

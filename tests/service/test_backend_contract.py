@@ -171,6 +171,15 @@ async def test_errors_are_reported_with_their_reason(running: Any) -> None:
     assert "ZeroDivisionError" in bug.reason
 
 
+async def test_a_runner_cannot_change_what_was_submitted(running: Any) -> None:
+    backend, events = await running()
+    submitted = task("copy", "scribble", items=[1])
+    backend.submit(submitted)
+    outcome = await events.outcome("copy")
+    assert outcome.data == repr({"items": [1, "scribbled"], "seen": True}).encode()
+    assert submitted.payload == {"items": [1]}  # the worker had a copy, as across processes
+
+
 async def test_a_crashed_worker_is_reported_and_replaced(running_processes: Any) -> None:
     backend, events = await running_processes(workers=1)
     backend.submit(task("boom", "crash"))
