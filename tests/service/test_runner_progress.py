@@ -11,6 +11,7 @@ import pytest
 
 from engine.pipeline import STAGE_WORDS
 from service.jobs import runners
+from service.jobs.task import unpack
 from service.processes import PROCESSES, inputs_at
 from service.settings import Settings
 
@@ -32,7 +33,7 @@ def _stored(inputs: dict[str, Any], process: str = "mesh") -> dict[str, Any]:
 def _run(process: str, payload: dict[str, Any]) -> tuple[dict[str, Any], list[tuple[int, str]]]:
     seen: list[tuple[int, str]] = []
     data, _ = getattr(runners, process)(payload, lambda p, m: seen.append((p, m)), lambda: False)
-    doc: dict[str, Any] = orjson.loads(runners.unpack(data))
+    doc: dict[str, Any] = orjson.loads(unpack(data))
     return doc, seen
 
 
