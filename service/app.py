@@ -18,7 +18,7 @@ from starlette.middleware.gzip import GZipMiddleware
 
 from . import problems
 from .callbacks import CallbackNotifier
-from .jobs.backend import ComputeBackend
+from .jobs.backends.base import ComputeBackend
 from .jobs.factory import make_backend
 from .jobs.manager import JobManager
 from .jobs.sqlite import SqliteJobStore

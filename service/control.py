@@ -1,7 +1,7 @@
 """Mesh control at admission and in the worker: the size-field estimate with its limits, and
 the boundary tags of a job (region names and tag runs) as plain JSON and as engine objects.
 
-Kept apart from :mod:`service.processes` and :mod:`service.jobs.runners` so those only call in.
+Kept apart from :mod:`service.processes` so it only calls in.
 """
 
 from __future__ import annotations

@@ -8,7 +8,7 @@ from prometheus_client import CollectorRegistry, Counter, Histogram
 from prometheus_client.core import GaugeMetricFamily, Metric
 from prometheus_client.registry import Collector
 
-from .jobs.backend import BackendStats
+from .jobs.backends.base import BackendStats
 from .jobs.store import JobStatus
 
 __all__ = ["Metrics"]

@@ -38,7 +38,11 @@ class Settings(BaseSettings):
         description="how much lower the local workers' CPU priority is than the service's, so"
         " status requests stay fast while every core meshes (0: the same)",
     )
-    backend: Literal["local", "dask"] = Field("local", description="compute backend")
+    backend: Literal["local", "dask", "inline"] = Field(
+        "local",
+        description="compute backend: local worker processes, a Dask cluster, or inline (one"
+        " task at a time on a thread of the service: for tests and tiny deployments)",
+    )
     scheduler: str | None = Field(
         None, description="Dask scheduler address (backend dask); none: a local Dask cluster"
     )

@@ -14,8 +14,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from .formats import FORMATS, ResultFormat, StoredResult
-from .jobs.runners import unpack
 from .jobs.store import FINAL, JobRecord, JobStore
+from .jobs.task import unpack
 from .problems import Problem
 
 __all__ = ["Preference", "output_format", "parse_prefer", "preference", "wait_final"]

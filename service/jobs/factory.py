@@ -1,6 +1,6 @@
 """Backends by name: :func:`make_backend` builds the one the settings name.
 
-Kept apart from :mod:`service.jobs.backend` so that the interface imports none of its
+Kept apart from :mod:`service.jobs.backends.base` so that the interface imports none of its
 implementations (each is imported here, when chosen).
 """
 
@@ -10,13 +10,13 @@ from collections.abc import Callable
 from typing import Any
 
 from ..settings import Settings
-from .backend import ComputeBackend
+from .backends.base import ComputeBackend
 
 __all__ = ["BACKENDS", "make_backend", "scheduler_security"]
 
 
 def _local(settings: Settings) -> ComputeBackend:
-    from .local import LocalBackend
+    from .backends.local import LocalBackend
 
     return LocalBackend(
         workers=settings.workers, cancel_grace=settings.cancel_grace, nice=settings.worker_nice
@@ -25,7 +25,7 @@ def _local(settings: Settings) -> ComputeBackend:
 
 def _dask(settings: Settings) -> ComputeBackend:
     try:
-        from .dask import DaskBackend
+        from .backends.dask import DaskBackend
     except ImportError as exc:  # the optional extra is missing
         raise ValueError(
             f"the dask backend needs the dask extra (pip install 'evomesh[dask]'): {exc}"
@@ -38,6 +38,12 @@ def _dask(settings: Settings) -> ComputeBackend:
         reconnect_timeout=settings.scheduler_timeout,
         security=scheduler_security(settings),
     )
+
+
+def _inline(settings: Settings) -> ComputeBackend:
+    from .backends.inline import InlineBackend
+
+    return InlineBackend(cancel_grace=settings.cancel_grace)
 
 
 def scheduler_security(settings: Settings) -> Any:
@@ -59,7 +65,11 @@ def scheduler_security(settings: Settings) -> Any:
 
 
 #: Backend factories by name (``Settings.backend``).
-BACKENDS: dict[str, Callable[[Settings], ComputeBackend]] = {"local": _local, "dask": _dask}
+BACKENDS: dict[str, Callable[[Settings], ComputeBackend]] = {
+    "local": _local,
+    "dask": _dask,
+    "inline": _inline,
+}
 
 
 def make_backend(settings: Settings) -> ComputeBackend:

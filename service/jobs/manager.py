@@ -30,8 +30,9 @@ from ..metrics import Metrics
 from ..processes import PROCESSES, Prepared, Process
 from ..settings import Settings
 from .admission import QueueFull, Throughput, retry_after
-from .backend import ComputeBackend, Outcome, OutcomeKind, Task
+from .backends.base import ComputeBackend
 from .store import BatchRecord, JobRecord, JobStore, NewJob, StoreError, StoreUnavailable
+from .task import Outcome, OutcomeKind, Task
 
 __all__ = ["JobManager", "request_digest"]
 

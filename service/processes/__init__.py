@@ -13,7 +13,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from ..jobs.backend import ProgressCallback
+from ..jobs.task import ProgressCallback
 from . import mesh, quality, smooth
 from .base import Prepared, Process, Runner, Where, count_rings, inputs_at, triangle_cap
 from .mesh import estimate_mesh

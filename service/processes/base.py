@@ -19,11 +19,11 @@ from pydantic import BaseModel
 
 import engine
 from engine import EngineError, SmoothingParams
+from engine.pipeline import STAGE_WEIGHTS, job_progress
 
 from ..document import mesh_from_document
 from ..inputs import ExecuteRequest, MeshDocumentInput, SmoothingInput
-from ..jobs.backend import ProgressCallback, TaskError
-from ..jobs.runners import pack
+from ..jobs.task import ProgressCallback, TaskError, pack
 from ..problems import Problem
 from ..settings import Settings
 
@@ -44,6 +44,7 @@ __all__ = [
     "smoothing_from_json",
     "smoothing_json",
     "smoothing_params",
+    "stage_progress",
     "triangle_cap",
     "with_seed",
 ]
@@ -302,3 +303,20 @@ MESH_OUTPUT: dict[str, Any] = {
 
 #: A worker entry point: ``(payload, progress, should_stop) -> (data, figures)``.
 Runner = Callable[[dict[str, Any], ProgressCallback, Callable[[], bool]], tuple[bytes, Any]]
+
+
+def stage_progress(
+    progress: ProgressCallback, smoothing: SmoothingParams, first: str = "boundary"
+) -> Callable[[str, float], None]:
+    """The engine's stage reports as the job's progress: each stage's share of the bar is its
+    measured cost (:func:`engine.pipeline.job_progress`), the message names it in words. A job
+    that starts at stage ``first`` (``smooth``: at "swap") has the bar rescaled to start at 0."""
+    weights = STAGE_WEIGHTS[smoothing.selection if smoothing.method == "ga" else "poor"]
+    stages = list(weights)
+    skipped = sum(weights[s] for s in stages[: stages.index(first)]) / sum(weights.values())
+    low = int(99 * skipped)
+
+    def report(percent: int, words: str) -> None:
+        progress(round(99 * max(percent - low, 0) / (99 - low)), words)
+
+    return job_progress(report if low else progress, smoothing)

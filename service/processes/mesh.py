@@ -40,8 +40,7 @@ from ..inputs import (
     RefinementInput,
     SmoothingInput,
 )
-from ..jobs.backend import ProgressCallback
-from ..jobs.runners import _job_progress
+from ..jobs.task import ProgressCallback
 from ..problems import Problem
 from ..settings import Settings
 from .base import (
@@ -57,6 +56,7 @@ from .base import (
     smoothing_from_json,
     smoothing_json,
     smoothing_params,
+    stage_progress,
     triangle_cap,
     with_seed,
 )
@@ -407,7 +407,7 @@ def run(
 
     def job() -> dict[str, Any]:
         request = MeshRequest.from_json(payload)
-        return execute(request, _job_progress(progress, request.smoothing), should_stop)
+        return execute(request, stage_progress(progress, request.smoothing), should_stop)
 
     return run_task(job)
 

@@ -13,7 +13,7 @@ from engine import SmoothingParams
 
 from ..document import cell_data, mesh_from_document
 from ..inputs import SMOOTHING_DEFAULTS, STRICT, ExecuteRequest, Fitness, MeshDocumentInput
-from ..jobs.backend import ProgressCallback
+from ..jobs.task import ProgressCallback
 from ..problems import Problem
 from ..settings import Settings
 from .base import MESH_OUTPUT, Prepared, Process, Where, admitted, check_mesh, mesh_only, run_task

@@ -17,8 +17,7 @@ import engine
 
 from ..document import mesh_from_document, result_document
 from ..inputs import STRICT, ExecuteRequest, MeshDocumentInput, SmoothingInput
-from ..jobs.backend import ProgressCallback
-from ..jobs.runners import _job_progress
+from ..jobs.task import ProgressCallback
 from ..settings import Settings
 from .base import (
     MESH_OUTPUT,
@@ -33,6 +32,7 @@ from .base import (
     smoothing_from_json,
     smoothing_json,
     smoothing_params,
+    stage_progress,
     with_seed,
 )
 
@@ -121,7 +121,7 @@ def run(
 
     def job() -> dict[str, Any]:
         request = SmoothRequest.from_json(payload)
-        report = _job_progress(progress, request.smoothing, first="swap")
+        report = stage_progress(progress, request.smoothing, first="swap")
         return execute(request, report, should_stop)
 
     return run_task(job)

@@ -11,8 +11,8 @@ from fastapi.responses import JSONResponse
 from ..deps import ManagerDep, OwnerDep, SettingsDep, StoreDep, require_api_key
 from ..formats import FORMATS, ResultFormat, StoredResult
 from ..jobfilter import JobFilter
-from ..jobs.runners import unpack
 from ..jobs.store import JobRecord, JobStatus, JobStore
+from ..jobs.task import unpack
 from ..negotiate import acceptable, etag, etag_matches
 from ..problems import Problem
 from ..render import PictureError, RenderPool, picture_options

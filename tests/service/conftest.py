@@ -1,4 +1,10 @@
-"""Fixtures of the service tests: apps with their lifespan running, clients, polling helpers."""
+"""Fixtures of the service tests: apps with their lifespan running, clients, polling helpers.
+
+A test's service runs its jobs on the inline backend (a thread of the test's process) and keeps
+them in memory unless the test asks otherwise: ``backend="local"`` (or ``"dask"``) for worker
+processes, ``data_dir=...`` for a SQLite store a later app of the test opens again. Worker
+faults (a killed worker, a job that ignores its stop) need worker processes; nothing else does.
+"""
 
 from __future__ import annotations
 
@@ -14,6 +20,7 @@ import pytest
 from fastapi import FastAPI
 
 from service.app import create_app
+from service.jobs.memory import MemoryJobStore
 from service.jobs.store import JobStore
 from service.processes import PROCESSES, Process
 from service.settings import Settings
@@ -47,7 +54,12 @@ def anyio_backend() -> str:
 
 
 def make_settings(data_dir: Path, **overrides: Any) -> Settings:
-    values: dict[str, Any] = {"data_dir": data_dir, "workers": 1, "cancel_grace": 2.0}
+    values: dict[str, Any] = {
+        "data_dir": data_dir,
+        "workers": 1,
+        "cancel_grace": 2.0,
+        "backend": "inline",
+    }
     values.update(overrides)
     return Settings(_env_file=None, **values)  # type: ignore[call-arg]
 
@@ -57,12 +69,15 @@ ClientFactory = Callable[..., Awaitable[httpx.AsyncClient]]
 
 @pytest.fixture
 async def make_client(tmp_path: Path) -> AsyncIterator[ClientFactory]:
-    """``await make_client(**settings)``: a client of a started app (stopped at teardown)."""
+    """``await make_client(**settings)``: a client of a started app (stopped at teardown); its
+    store is in memory unless ``data_dir`` (SQLite there) or ``store`` is given."""
     async with AsyncExitStack() as stack:
 
         async def factory(
             data_dir: Path | None = None, store: JobStore | None = None, **overrides: Any
         ) -> httpx.AsyncClient:
+            if store is None and data_dir is None:
+                store = MemoryJobStore()
             settings = make_settings(data_dir or tmp_path / "data", **overrides)
             app = create_app(settings, processes=TEST_PROCESSES, store=store)
             await stack.enter_async_context(app.router.lifespan_context(app))

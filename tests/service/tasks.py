@@ -12,7 +12,7 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field
 
 from service.inputs import ExecuteRequest
-from service.jobs.backend import ProgressCallback, TaskError
+from service.jobs.task import ProgressCallback, TaskError
 from service.processes import Prepared, Process, Where
 from service.settings import Settings
 
@@ -24,6 +24,15 @@ def echo(
 ) -> tuple[bytes, dict[str, Any]]:
     progress(50, "echo")
     return repr(payload).encode(), {"pid": os.getpid()}
+
+
+def scribble(
+    payload: dict[str, Any], progress: ProgressCallback, should_stop: Stop
+) -> tuple[bytes, dict[str, Any]]:
+    """Change the payload it was handed, and say what it saw."""
+    payload.setdefault("items", []).append("scribbled")
+    payload["seen"] = True
+    return repr(payload).encode(), {}
 
 
 def sleepy(

@@ -13,7 +13,7 @@ import pytest
 
 import engine
 from service import processes
-from service.jobs.backend import TaskError
+from service.jobs.task import TaskError
 from service.problems import Problem, problem_for
 from service.processes import PROCESSES, estimate_mesh, inputs_at
 from service.settings import Settings
@@ -183,8 +183,9 @@ async def test_an_untrusted_host_is_refused(make_client: ClientFactory, tmp_path
 
 
 async def test_a_job_waits_for_a_warm_worker_and_ready_says_so(
-    client: httpx.AsyncClient,
+    make_client: ClientFactory,
 ) -> None:
+    client = await make_client(backend="local")  # worker processes, which warm up
     ready = (await client.get("/ready")).json()  # the fixture waited for /ready
     manager = client.app.state.manager  # type: ignore[attr-defined]
     stats = manager.backend.stats()

@@ -1,7 +1,9 @@
 """The ComputeBackend contract: every implementation passes these tests.
 
 Every submitted task ends with exactly one ``finished`` event; crashes, time-outs and
-cancellations are reported as such, and the backend keeps working after each.
+cancellations are reported as such, and the backend keeps working after each. The inline backend
+runs tasks in the test's own process, so the tests that kill their worker run on the backends of
+worker processes only.
 """
 
 from __future__ import annotations
@@ -15,8 +17,10 @@ from typing import Any
 import anyio
 import pytest
 
-from service.jobs.backend import ComputeBackend, Outcome, OutcomeKind, Task
-from service.jobs.local import LocalBackend
+from service.jobs.backends.base import ComputeBackend
+from service.jobs.backends.inline import InlineBackend
+from service.jobs.backends.local import LocalBackend
+from service.jobs.task import Outcome, OutcomeKind, Task
 
 from .clusters import Clusters
 
@@ -32,15 +36,21 @@ def _local(workers: int, grace: float, clusters: Clusters) -> ComputeBackend:
     return LocalBackend(workers=workers, cancel_grace=grace, warmup=False)
 
 
+def _inline(workers: int, grace: float, clusters: Clusters) -> ComputeBackend:
+    return InlineBackend(cancel_grace=grace, warmup=False)  # one thread, whatever ``workers``
+
+
 def _dask(workers: int, grace: float, clusters: Clusters) -> ComputeBackend:
-    from service.jobs.dask import DaskBackend
+    from service.jobs.backends.dask import DaskBackend
 
     # A real LocalCluster of worker processes, shared by the module's tests (by worker count).
     return DaskBackend(clusters.address(workers), cancel_grace=grace, warmup=False)
 
 
 #: Implementations by name.
-IMPLEMENTATIONS: dict[str, Factory] = {"local": _local, "dask": _dask}
+IMPLEMENTATIONS: dict[str, Factory] = {"local": _local, "dask": _dask, "inline": _inline}
+#: Those whose workers are processes of their own, which a task may kill.
+PROCESS_IMPLEMENTATIONS = ("dask", "local")
 
 
 class Recorder:
@@ -94,8 +104,15 @@ def impl(request: pytest.FixtureRequest) -> Factory:
     return IMPLEMENTATIONS[request.param]
 
 
-@pytest.fixture
-async def running(impl: Factory, clusters: Clusters) -> AsyncIterator[Callable[..., Any]]:
+@pytest.fixture(params=PROCESS_IMPLEMENTATIONS)
+def process_impl(request: pytest.FixtureRequest) -> Factory:
+    return IMPLEMENTATIONS[request.param]
+
+
+Starter = Callable[..., Any]
+
+
+async def _starter(impl: Factory, clusters: Clusters) -> AsyncIterator[Starter]:
     started: list[ComputeBackend] = []
 
     async def start(workers: int = 1, grace: float = 5.0) -> tuple[ComputeBackend, Recorder]:
@@ -108,6 +125,20 @@ async def running(impl: Factory, clusters: Clusters) -> AsyncIterator[Callable[.
     yield start
     for backend in started:
         await backend.close()
+
+
+@pytest.fixture
+async def running(impl: Factory, clusters: Clusters) -> AsyncIterator[Starter]:
+    """``await running(workers, grace)``: a started backend of each implementation."""
+    async for start in _starter(impl, clusters):
+        yield start
+
+
+@pytest.fixture
+async def running_processes(process_impl: Factory, clusters: Clusters) -> AsyncIterator[Starter]:
+    """As ``running``, for the implementations whose workers a task may kill."""
+    async for start in _starter(process_impl, clusters):
+        yield start
 
 
 def task(job_id: str, runner: str, timeout: float = 60.0, **payload: Any) -> Task:
@@ -140,8 +171,17 @@ async def test_errors_are_reported_with_their_reason(running: Any) -> None:
     assert "ZeroDivisionError" in bug.reason
 
 
-async def test_a_crashed_worker_is_reported_and_replaced(running: Any) -> None:
-    backend, events = await running(workers=1)
+async def test_a_runner_cannot_change_what_was_submitted(running: Any) -> None:
+    backend, events = await running()
+    submitted = task("copy", "scribble", items=[1])
+    backend.submit(submitted)
+    outcome = await events.outcome("copy")
+    assert outcome.data == repr({"items": [1, "scribbled"], "seen": True}).encode()
+    assert submitted.payload == {"items": [1]}  # the worker had a copy, as across processes
+
+
+async def test_a_crashed_worker_is_reported_and_replaced(running_processes: Any) -> None:
+    backend, events = await running_processes(workers=1)
     backend.submit(task("boom", "crash"))
     outcome = await events.outcome("boom")
     assert outcome.kind is OutcomeKind.crashed

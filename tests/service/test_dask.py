@@ -137,7 +137,7 @@ async def test_ready_waits_for_a_warm_dask_worker(tmp_path: Path) -> None:
     from distributed import Client
 
     from service.app import create_app
-    from service.jobs.dask_worker import is_warm
+    from service.jobs.backends.dask_worker import is_warm
 
     from .clusters import local_cluster
     from .conftest import TEST_PROCESSES, make_settings

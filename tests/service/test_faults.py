@@ -1,4 +1,4 @@
-"""Faults: crashed workers, time-outs, a stopped service, retention."""
+"""Faults: crashed workers, time-outs, a stopped service, retention (on worker processes)."""
 
 from __future__ import annotations
 
@@ -6,6 +6,7 @@ import json
 import logging
 import time
 from pathlib import Path
+from typing import Any
 
 import anyio
 import httpx
@@ -18,6 +19,16 @@ from service.logs import JsonFormatter
 from .conftest import SQUARE, ClientFactory, assert_problem, submit, wait_for
 
 pytestmark = pytest.mark.anyio
+
+
+@pytest.fixture
+def make_client(make_client: ClientFactory) -> ClientFactory:
+    """Workers are killed, time out and are stopped here: the local backend's processes."""
+
+    async def factory(**overrides: Any) -> httpx.AsyncClient:
+        return await make_client(**{"backend": "local", **overrides})
+
+    return factory
 
 
 async def test_a_crashed_worker_is_replaced_and_the_job_retried(

@@ -15,10 +15,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from service.jobs.backend import OutcomeKind, Task
-from service.jobs.local import LocalBackend
+from service.jobs.backends.local import LocalBackend
 from service.jobs.sqlite import SqliteJobStore
 from service.jobs.store import NewJob
+from service.jobs.task import OutcomeKind, Task
 from service.middleware import json_depth
 
 from .conftest import SQUARE, ClientFactory, app_of, assert_problem, submit, wait_for

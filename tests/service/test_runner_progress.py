@@ -11,7 +11,7 @@ import pytest
 
 from engine.pipeline import STAGE_WORDS
 from service import processes
-from service.jobs.runners import unpack
+from service.jobs.task import unpack
 from service.processes import PROCESSES, inputs_at
 from service.settings import Settings
 

@@ -2,14 +2,19 @@
 
 from __future__ import annotations
 
+import tempfile
 import threading
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
+from service.jobs.memory import MemoryJobStore, MemoryTables
 from service.jobs.sqlite import SqliteJobStore
-from service.jobs.store import IdempotencyConflict, JobStatus, JobStore, NewJob
+from service.jobs.store import IdempotencyConflict, JobStatus, JobStore, NewJob, StoreError
 
 
 class Clock:
@@ -28,8 +33,13 @@ def _sqlite(tmp_path: Path, clock: Clock) -> Opener:
     return lambda: SqliteJobStore(tmp_path / "jobs.sqlite3", clock=clock)
 
 
+def _memory(tmp_path: Path, clock: Clock) -> Opener:
+    tables = MemoryTables()  # what a reopened store finds, as the file is for SQLite
+    return lambda: MemoryJobStore(clock=clock, tables=tables)
+
+
 #: Implementations: name -> (tmp_path, clock) -> opener of a store on the same storage.
-IMPLEMENTATIONS = {"sqlite": _sqlite}
+IMPLEMENTATIONS = {"sqlite": _sqlite, "memory": _memory}
 
 
 @pytest.fixture(params=sorted(IMPLEMENTATIONS))
@@ -246,3 +256,81 @@ def test_inputs_keep_any_json_value(store: JobStore) -> None:
     inputs = {"big": 10**30, "text": "é\u2028", "nested": [None, True, 1.5, {"k": []}]}
     store.create(NewJob("j", "mesh", inputs))
     assert store.inputs("j") == inputs
+
+
+# -- every store behaves as the SQLite store, the reference --------------------------------------
+_IDS = st.sampled_from(["a", "b", "c", "d"])
+_OPERATIONS = st.one_of(
+    st.tuples(
+        st.just("create"),
+        _IDS,
+        st.sampled_from(["mesh", "smooth"]),
+        st.sampled_from(["", "alice", "bob"]),
+        st.none() | st.sampled_from(["k1", "k2"]),
+        st.sampled_from(["h1", "h2"]),
+    ),
+    st.tuples(st.just("create_batch"), st.sampled_from(["b1", "b2"]), st.lists(_IDS, max_size=3)),
+    st.tuples(st.just("mark_running"), _IDS, st.integers(1, 3)),
+    st.tuples(st.just("set_progress"), _IDS, st.integers(-10, 120), st.sampled_from(["mesh", "x"])),
+    st.tuples(st.just("finish"), _IDS, st.binary(max_size=4), st.sampled_from([{}, {"n": [1, 2]}])),
+    st.tuples(st.just("fail"), _IDS, st.just("broken")),
+    st.tuples(st.just("requeue"), _IDS, st.booleans()),
+    st.tuples(st.just("dismiss"), _IDS),
+    st.tuples(st.just("purge"), st.integers(0, 40)),
+)
+
+
+def _apply(store: JobStore, op: tuple[Any, ...]) -> object:
+    """Run one operation; an error is its kind (each store raises its own for a repeated id)."""
+    name, *args = op
+    try:
+        if name == "create":
+            job_id, process, owner, key, digest = args
+            new = NewJob(job_id, process, {"id": job_id}, 1, None, key, digest, owner)
+            return store.create(new)
+        if name == "create_batch":
+            batch_id, ids = args
+            jobs = [NewJob(f"{batch_id}-{i}", "mesh", {}, batch_id=batch_id) for i in ids]
+            return store.create_batch(batch_id, "mesh", jobs, "alice")
+        if name == "finish":
+            return store.finish(args[0], args[1], args[2])
+        if name == "requeue":
+            return store.requeue(args[0], "again", keep_attempt=args[1])
+        if name == "purge":
+            return store.purge(1_000.0 + args[0])
+        result: object = getattr(store, name)(*args)
+        return result
+    except IdempotencyConflict as exc:
+        return ("conflict", exc.job_id)
+    except StoreError:
+        return "error"
+
+
+def _state(store: JobStore) -> object:
+    everyone = store.search(limit=100)
+    ids = [r.id for r in everyone[0]]
+    return (
+        everyone,
+        store.search(owner="alice", status=[JobStatus.accepted, JobStatus.running], limit=2),
+        store.search(process=["smooth"], offset=1),
+        store.unfinished(),
+        store.counts(),
+        store.records([*reversed(ids), "nope"]),
+        {i: (store.inputs(i), store.result(i)) for i in ids},
+        {b: store.batch(b) for b in ("b1", "b2")},
+    )
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.lists(_OPERATIONS, max_size=25))
+def test_memory_store_behaves_as_the_sqlite_store(operations: list[tuple[Any, ...]]) -> None:
+    with tempfile.TemporaryDirectory() as tmp:
+        reference = SqliteJobStore(Path(tmp) / "jobs.sqlite3", clock=Clock())
+        memory = MemoryJobStore(clock=Clock())
+        try:
+            for op in operations:
+                assert _apply(memory, op) == _apply(reference, op), op
+            assert _state(memory) == _state(reference)
+        finally:
+            reference.close()
+            memory.close()

@@ -13,7 +13,6 @@ from pathlib import Path
 from typing import Any
 
 import anyio
-import httpx
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -137,8 +136,9 @@ async def test_random_write_failures_never_strand_a_job(
 
 
 async def test_a_row_with_an_unknown_status_does_not_break_the_list(
-    client: httpx.AsyncClient,
+    make_client: ClientFactory, tmp_path: Path
 ) -> None:
+    client = await make_client(data_dir=tmp_path / "sqlite")
     job = await submit(client, "sleep", {"seconds": 0})
     await wait_for(client, job["jobID"])
     store = client.app.state.manager.store  # type: ignore[attr-defined]

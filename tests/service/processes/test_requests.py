@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 import engine
 from service import processes
 from service.cli import main
-from service.jobs.runners import unpack
+from service.jobs.task import unpack
 from service.processes import PROCESSES, inputs_at, mesh, quality, smooth
 from service.settings import Settings
 

@@ -26,7 +26,6 @@ import os
 import signal
 import threading
 import time
-from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
@@ -34,14 +33,13 @@ from multiprocessing.process import BaseProcess
 from multiprocessing.reduction import ForkingPickler
 from typing import Any
 
-from .backend import BackendStats, Events, Outcome, OutcomeKind, Task, TaskError, resolve_runner
+from ..task import WORKER_MODULES, Outcome, OutcomeKind, Task, run_task, settle, throttled
+from .base import BackendStats, Events
+from .queued import QueuedBackend
 
 __all__ = ["LocalBackend"]
 
 log = logging.getLogger("evomesh.worker")
-
-#: Progress messages a worker sends at most this often (seconds); the store need not see more.
-PROGRESS_INTERVAL = 0.2
 
 
 def _context() -> Any:
@@ -49,7 +47,7 @@ def _context() -> Any:
     (forking the service itself would copy its threads and sockets)."""
     if "forkserver" in multiprocessing.get_all_start_methods():
         ctx = multiprocessing.get_context("forkserver")
-        ctx.set_forkserver_preload(["engine", "service.jobs.runners"])
+        ctx.set_forkserver_preload(list(WORKER_MODULES))
         return ctx
     return multiprocessing.get_context("spawn")
 
@@ -76,34 +74,17 @@ def _worker_main(conn: Connection, stop: Any, warmup: bool, nice: int = 0) -> No
             return
         if msg is None:
             return
-        token, runner_name, payload = msg
-        # Counting from the start: a short job sends no progress at all (the supervisor has
-        # already marked it running), which spares a message and a store write per job.
-        last = time.monotonic()
+        token, task = msg
 
-        def progress(percent: int, message: str, token: int = token) -> None:
-            nonlocal last
-            now = time.monotonic()
-            if now - last >= PROGRESS_INTERVAL:
-                last = now
-                conn.send(("progress", token, int(percent), str(message)))
+        def send_progress(percent: int, message: str, token: int = token) -> None:
+            conn.send(("progress", token, percent, message))
 
         def should_stop(token: int = token) -> bool:
             return bool(stop.value == token)
 
-        t0 = time.perf_counter()
+        outcome = run_task(task, throttled(send_progress), should_stop)
         try:
-            data, meta = resolve_runner(runner_name)(payload, progress, should_stop)
-            reply: tuple[Any, ...] = ("done", token, data, meta)
-        except Exception as exc:
-            if should_stop():
-                reply = ("cancelled", token, "stopped on request")
-            elif isinstance(exc, TaskError):
-                reply = ("error", token, str(exc))
-            else:
-                reply = ("error", token, f"internal error: {type(exc).__name__}: {exc}")
-        try:
-            conn.send((*reply, time.perf_counter() - t0))
+            conn.send(("finished", token, outcome))
         except (BrokenPipeError, OSError):
             return
 
@@ -199,8 +180,8 @@ class _Watcher:
             return  # closed: the sentinel reports the death
 
 
-class LocalBackend:
-    """A :class:`~service.jobs.backend.ComputeBackend` of local worker processes.
+class LocalBackend(QueuedBackend):
+    """A :class:`~service.jobs.backends.base.ComputeBackend` of local worker processes.
 
     ``warmup`` makes each new worker compile/load the engine's kernels before its first task;
     ``nice`` lowers the workers' scheduling priority by that much (0: the service's priority).
@@ -220,27 +201,21 @@ class LocalBackend:
             raise ValueError("workers must be at least 1")
         if not 0 <= nice <= 19:
             raise ValueError("nice must be between 0 and 19")
+        super().__init__()
         self.workers = workers
         self.cancel_grace = cancel_grace
         self.warmup = warmup
         self.nice = nice
         self._ctx = _context()
         self._pool: list[_Worker] = []
-        self._queue: deque[Task] = deque()
         self._tokens = itertools.count(1)
-        self._events: Events | None = None
-        self._loop: asyncio.AbstractEventLoop | None = None
         self._watcher: _Watcher | None = None
-        self._closing = False
         self._spawning = 0
         self._spawns: set[asyncio.Task[None]] = set()
 
     # -- lifecycle -----------------------------------------------------------------------------
     async def start(self, events: Events) -> None:
-        self._events = events
-        self._loop = asyncio.get_running_loop()
-        self._closing = False
-        self._watcher = _Watcher(self._loop, self._handle, self._died)
+        self._watcher = _Watcher(self._begin(events), self._handle, self._died)
         await asyncio.gather(*(self._spawn() for _ in range(self.workers)))
 
     async def _spawn(self) -> None:
@@ -296,27 +271,8 @@ class LocalBackend:
                 worker.conn.close()
             worker.process.close()
 
-    def _require_loop(self) -> asyncio.AbstractEventLoop:
-        if self._loop is None or self._events is None:
-            raise RuntimeError("the backend is not started")
-        return self._loop
-
     # -- tasks ---------------------------------------------------------------------------------
-    def submit(self, task: Task) -> None:
-        self._require_loop()
-        if self._closing:
-            raise RuntimeError("the backend is closing")
-        self._queue.append(task)
-        self._dispatch()
-
-    def cancel(self, job_id: str) -> None:
-        loop = self._require_loop()
-        for task in self._queue:
-            if task.job_id == job_id:
-                self._queue.remove(task)
-                outcome = Outcome(OutcomeKind.cancelled, reason="dismissed before it started")
-                loop.call_soon(self._report, job_id, outcome)
-                return
+    def _stop_running(self, job_id: str) -> None:
         for worker in self._pool:
             if worker.task is not None and worker.task.job_id == job_id:
                 self._stop(worker, OutcomeKind.cancelled)
@@ -346,10 +302,6 @@ class LocalBackend:
         """Process ids of the workers (for operators and fault tests)."""
         return [w.process.pid for w in self._pool if w.process.pid is not None]
 
-    def _report(self, job_id: str, outcome: Outcome) -> None:
-        if self._events is not None:
-            self._events.finished(job_id, outcome)
-
     def _dispatch(self) -> None:
         if self._closing:
             return
@@ -366,11 +318,9 @@ class LocalBackend:
             task = self._queue.popleft()
             token = next(self._tokens)
             try:
-                message = ForkingPickler.dumps((token, task.runner, task.payload))
-            except Exception as exc:  # RecursionError, PicklingError...: the task's fault
-                reason = f"the task could not be handed to a worker: {type(exc).__name__}: {exc}"
-                outcome = Outcome(OutcomeKind.error, reason=reason)
-                self._require_loop().call_soon(self._report, task.job_id, outcome)
+                message = ForkingPickler.dumps((token, task))
+            except Exception as exc:  # RecursionError, PicklingError...
+                self._refuse(task, exc)
                 continue
             worker.task, worker.token = task, token
             worker.started, worker.stopping = time.perf_counter(), None
@@ -412,16 +362,8 @@ class LocalBackend:
             worker.timer.cancel()
             worker.timer = None
         worker.task = None
-        if worker.stopping is not None and outcome.kind is not OutcomeKind.crashed:
-            outcome = Outcome(worker.stopping, reason=self._why(worker.stopping, task))
-        self._report(task.job_id, outcome)
+        self._report(task.job_id, settle(outcome, worker.stopping, task))
         self._dispatch()  # the worker is free
-
-    @staticmethod
-    def _why(kind: OutcomeKind, task: Task) -> str:
-        if kind is OutcomeKind.timeout:
-            return f"stopped after exceeding the time limit of {task.timeout:g} s"
-        return "stopped on request"
 
     def _handle(self, worker: _Worker, msg: tuple[Any, ...]) -> None:
         kind, token = msg[0], msg[1]
@@ -436,12 +378,8 @@ class LocalBackend:
             assert self._events is not None
             if worker.stopping is None:
                 self._events.progress(worker.task.job_id, msg[2], msg[3])
-        elif kind == "done":
-            self._finish(worker, Outcome(OutcomeKind.succeeded, msg[2], msg[3], seconds=msg[4]))
-        elif kind == "cancelled":
-            self._finish(worker, Outcome(OutcomeKind.cancelled, reason=msg[2], seconds=msg[3]))
         else:
-            self._finish(worker, Outcome(OutcomeKind.error, reason=msg[2], seconds=msg[3]))
+            self._finish(worker, msg[2])
 
     def _died(self, worker: _Worker) -> None:
         if worker.gone or self._closing:
@@ -452,12 +390,9 @@ class LocalBackend:
         if worker in self._pool:
             self._pool.remove(worker)
         if worker.task is not None:
-            if worker.stopping is not None:
-                outcome = Outcome(worker.stopping, reason=self._why(worker.stopping, worker.task))
-            else:
-                elapsed = time.perf_counter() - worker.started
-                outcome = Outcome(OutcomeKind.crashed, reason=_death(code), seconds=elapsed)
-            self._finish(worker, outcome)
+            elapsed = time.perf_counter() - worker.started
+            # (killed after the grace of a stop it was asked for: that stop, says _finish)
+            self._finish(worker, Outcome(OutcomeKind.crashed, reason=_death(code), seconds=elapsed))
         log.warning("worker exited", extra={"pid": worker.process.pid, "exitcode": code})
         with contextlib.suppress(ValueError):
             worker.process.close()

@@ -28,7 +28,8 @@ service post to that loop; what happens comes back in order, batched, through
 127.0.0.1 (for trying it out on one machine).
 
 :class:`DaskBackend` is the service-side facade (its state lives on the service's loop);
-:class:`~service.jobs.dask_connection.DaskConnection` owns the Dask thread and its state.
+:class:`~service.jobs.backends.dask_connection.DaskConnection` owns the Dask thread and its
+state; :mod:`~service.jobs.backends.dask_worker` is what runs on the workers.
 """
 
 from __future__ import annotations
@@ -38,14 +39,15 @@ import contextlib
 import threading
 from typing import Any
 
-from .backend import BackendStats, Events, Task
+from ..task import Task
+from .base import BackendStats, Events
 from .dask_connection import DaskConnection, DaskOptions
 
 __all__ = ["DaskBackend"]
 
 
 class DaskBackend:
-    """A :class:`~service.jobs.backend.ComputeBackend` on a Dask distributed cluster.
+    """A :class:`~service.jobs.backends.base.ComputeBackend` on a Dask distributed cluster.
 
     ``scheduler`` is the scheduler's address (``tcp://host:8786``); ``None`` starts a local
     cluster of ``workers`` processes. ``direct`` gathers results straight from the workers

@@ -1,25 +1,26 @@
-"""What runs on a Dask worker for the Dask backend (:mod:`service.jobs.dask`).
+"""What runs on a Dask worker for the Dask backend (:mod:`service.jobs.backends.dask`).
 
-:func:`execute` runs one task: it reports ``started`` (with the worker's address) and progress
-(rate-limited) as Dask events on :data:`TOPIC`, and hands the runner a ``should_stop`` that asks
-the run's stop :class:`distributed.Event` at most every ``poll`` seconds. Every outcome but the
-worker's death comes back as a value. :class:`Warmup` loads the engine on each worker as it joins
-and then reports ``warm`` on :data:`TOPIC`; :func:`is_warm` answers the same for a worker asked.
+:func:`execute` runs one task (:func:`service.jobs.task.run_task`): it reports ``started`` (with
+the worker's address) and progress (rate-limited) as Dask events on :data:`TOPIC`, and hands the
+runner a ``should_stop`` that asks the run's stop :class:`distributed.Event` at most every
+``poll`` seconds. Every outcome but the worker's death comes back as a value. :class:`Warmup`
+loads the engine on each worker as it joins and then reports ``warm`` on :data:`TOPIC`;
+:func:`is_warm` answers the same for a worker asked.
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
+import importlib
 import threading
 import time
-from typing import Any
 
 import distributed
 from distributed import Event, get_worker
 from distributed.diagnostics.plugin import WorkerPlugin
 
-from .backend import TaskError, resolve_runner
+from ..task import WORKER_MODULES, Outcome, Task, run_task, throttled
 
 __all__ = ["PROGRESS_INTERVAL", "TOPIC", "Warmup", "execute", "is_warm", "stop_name"]
 
@@ -67,38 +68,25 @@ class _StopFlag:
             self.event.clear()
 
 
-def execute(runner: str, payload: dict[str, Any], key: str, poll: float) -> tuple[Any, ...]:
-    """Run a task on a Dask worker: ``("done", data, meta, s)``, ``("error", reason, s)`` or
-    ``("cancelled", reason, s)``. Failures come back as values; only the worker's death is an
-    error to Dask."""
+def execute(task: Task, key: str, poll: float) -> Outcome:
+    """Run ``task`` (as the run ``key``) on a Dask worker; failures come back as values (only
+    the worker's death is an error to Dask)."""
     worker = get_worker()
     worker.log_event(TOPIC, ["started", key, worker.address])
-    # Counting from the start: a short job sends no progress at all.
-    last = time.monotonic()
 
-    def progress(percent: int, message: str) -> None:
-        nonlocal last
-        now = time.monotonic()
-        if now - last >= PROGRESS_INTERVAL:
-            last = now
-            worker.log_event(TOPIC, ["progress", key, int(percent), str(message)])
+    def send_progress(percent: int, message: str) -> None:
+        worker.log_event(TOPIC, ["progress", key, percent, message])
 
     stop = _StopFlag(key, poll)
-    t0 = time.perf_counter()
-    reply: tuple[Any, ...]
-    try:
-        data, meta = resolve_runner(runner)(payload, progress, stop)
-        reply = ("done", data, meta)
-    except Exception as exc:
-        if stop.seen or stop.ask():
-            reply = ("cancelled", "stopped on request")
-        elif isinstance(exc, TaskError):
-            reply = ("error", str(exc))
-        else:
-            reply = ("error", f"internal error: {type(exc).__name__}: {exc}")
+    outcome = run_task(
+        task,
+        throttled(send_progress, PROGRESS_INTERVAL),
+        stop,
+        stop_asked=lambda: stop.seen or stop.ask(),
+    )
     if stop.seen:
         stop.forget()
-    return (*reply, time.perf_counter() - t0)
+    return outcome
 
 
 class Warmup(WorkerPlugin):
@@ -117,9 +105,9 @@ _warmed = threading.Event()
 
 
 def _warm() -> None:
+    for name in WORKER_MODULES:
+        importlib.import_module(name)
     import engine
-
-    from . import runners  # noqa: F401
 
     engine.warmup()
     _warmed.set()

@@ -2,9 +2,10 @@
 
 :class:`DaskConnection` runs an asyncio loop of its own on a thread, holds the asynchronous
 :class:`distributed.Client` and every run's state, and reports what happens through ``emit``
-(thread-safe; :class:`service.jobs.dask.DaskBackend` hands it to the service's loop). Its
-public methods are called from the service's loop and post to the Dask loop; nothing else
-crosses. See :mod:`service.jobs.dask` for the protocol (events, stops, deaths, reconnection).
+(thread-safe; :class:`service.jobs.backends.dask.DaskBackend` hands it to the service's loop).
+Its public methods are called from the service's loop and post to the Dask loop; nothing else
+crosses. See :mod:`service.jobs.backends.dask` for the protocol (events, stops, deaths,
+reconnection).
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ import dask
 import distributed
 from distributed import Client, Event, Future, KilledWorker, as_completed
 
-from .backend import Outcome, OutcomeKind, Task
+from ..task import Outcome, OutcomeKind, Task, error_outcome, settle, stopped
 from .dask_worker import TOPIC, Warmup, execute, is_warm, stop_name
 
 __all__ = ["DaskConnection", "DaskOptions"]
@@ -56,7 +57,7 @@ class _Run:
 
 @dataclass(frozen=True)
 class DaskOptions:
-    """How the Dask backend uses its cluster (see :class:`service.jobs.dask.DaskBackend`)."""
+    """How the Dask backend uses its cluster (see :class:`.dask.DaskBackend`)."""
 
     scheduler: str | None = None  #: address (tcp:// or tls://); None: a LocalCluster of ours
     workers: int = 1  #: processes of a LocalCluster of ours
@@ -268,7 +269,7 @@ class DaskConnection:
                 continue
             if run.started:
                 why = f"lost the connection to the Dask scheduler at {self._address}"
-                self._finish(run, self._crash(run, why))
+                self._finish(run, _crashed(why))
             else:
                 run.future = None
                 if run not in self._waiting:
@@ -374,8 +375,8 @@ class DaskConnection:
         if runs:
             futures = client.map(
                 execute,
-                [r.task.runner for r in runs],
-                [r.task.payload for r in runs],
+                # The Task whole: Dask does not walk into it (it would into the payload's lists).
+                [r.task for r in runs],
                 [r.key for r in runs],
                 poll=self.options.stop_poll,
                 key=[r.key for r in runs],
@@ -435,7 +436,7 @@ class DaskConnection:
             extra={"job_id": run.task.job_id, "worker": worker},
         )
         self._drop_future(run)
-        self._finish(run, Outcome(run.stopping, reason=self._why(run.stopping, run.task)))
+        self._finish(run, stopped(run.stopping, run.task))
         if worker is not None and self._client is not None:
             self._spawn(self._kill_worker(self._client, worker), f"killing worker {worker}")
 
@@ -449,17 +450,6 @@ class DaskConnection:
             await asyncio.wait_for(
                 client.run(os._exit, 1, workers=[address], on_error="ignore"), 10
             )
-
-    @staticmethod
-    def _why(kind: OutcomeKind, task: Task) -> str:
-        if kind is OutcomeKind.timeout:
-            return f"stopped after exceeding the time limit of {task.timeout:g} s"
-        return "stopped on request"
-
-    def _crash(self, run: _Run, why: str) -> Outcome:
-        if run.stopping is not None:
-            return Outcome(run.stopping, reason=self._why(run.stopping, run.task))
-        return Outcome(OutcomeKind.crashed, reason=why)
 
     def _finish(self, run: _Run, outcome: Outcome) -> None:
         if run.finished:
@@ -479,9 +469,8 @@ class DaskConnection:
             # The run may have ended before it saw the Event: delete it either way.
             client = self._client
             self._spawn(Event(stop_name(run.key), client=client).clear(), "a stop cleanup")
-        if run.stopping is not None and outcome.kind is not OutcomeKind.crashed:
-            why = self._why(run.stopping, run.task)
-            outcome = Outcome(run.stopping, reason=why, seconds=outcome.seconds)
+        # A run asked to stop ends as that stop, even one whose worker then died.
+        outcome = settle(outcome, run.stopping, run.task)
         if not run.started and outcome.kind is OutcomeKind.succeeded:
             self._emit("started", job_id)  # its started event was lost; the order still holds
         self._emit("finished", job_id, outcome)
@@ -528,7 +517,7 @@ class DaskConnection:
                 if run.started and not run.finished and run.worker == address:
                     self._drop_future(run)
                     why = f"the Dask worker {address} running the job {how}"
-                    self._finish(run, self._crash(run, why))
+                    self._finish(run, _crashed(why))
 
     async def _consume(self, client: Client, ac: Any, more: asyncio.Event) -> None:
         """Collect finished futures in batches, as they complete."""
@@ -561,7 +550,7 @@ class DaskConnection:
                 values = None
             if values is not None:
                 for (run, _), value in zip(done, values, strict=True):
-                    self._finish(run, self._outcome(value))
+                    self._finish(run, value)
             else:  # one of them went missing: one by one
                 for run, future in done:
                     try:
@@ -569,30 +558,23 @@ class DaskConnection:
                     except Exception as exc:
                         if not run.finished and self._client is client:
                             self._drop_future(run)
-                            self._finish(run, self._crash(run, f"its result was lost: {exc}"))
+                            self._finish(run, _crashed(f"its result was lost: {exc}"))
                     else:
-                        self._finish(run, self._outcome(value))
+                        self._finish(run, value)
         for run, future in live:
             if run.finished or future.status == "finished":
                 continue
             if future.status == "error":
                 error = await future.exception()
                 if isinstance(error, KilledWorker):
-                    outcome = self._crash(run, f"Dask gave up on it after worker deaths: {error}")
+                    outcome = _crashed(f"Dask gave up on it after worker deaths: {error}")
                 else:
-                    outcome = Outcome(
-                        OutcomeKind.error, reason=f"internal error: {type(error).__name__}: {error}"
-                    )
+                    outcome = error_outcome(error)
                 self._finish(run, outcome)
             elif self._client is client and client.status == "running":
                 # Cancelled by the scheduler (restarted by someone): run it again, counted.
-                self._finish(run, self._crash(run, "the Dask scheduler dropped the task"))
+                self._finish(run, _crashed("the Dask scheduler dropped the task"))
 
-    @staticmethod
-    def _outcome(value: tuple[Any, ...]) -> Outcome:
-        kind = value[0]
-        if kind == "done":
-            return Outcome(OutcomeKind.succeeded, value[1], value[2], seconds=value[3])
-        if kind == "cancelled":
-            return Outcome(OutcomeKind.cancelled, reason=value[1], seconds=value[2])
-        return Outcome(OutcomeKind.error, reason=value[1], seconds=value[2])
+
+def _crashed(why: str) -> Outcome:
+    return Outcome(OutcomeKind.crashed, reason=why)
