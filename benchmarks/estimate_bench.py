@@ -20,7 +20,8 @@ import numpy as np
 from record import write_rows
 
 import engine
-from engine.sizing import build_size_field, estimate_triangles
+from engine.estimate import estimate_triangles
+from engine.sizing import build_size_field
 
 CASES = Path(__file__).resolve().parents[1] / "tests" / "data" / "cases"
 

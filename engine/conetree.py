@@ -18,7 +18,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["LEAF", "TOLERANCE", "ConeTree", "build_tree", "cone_min"]
+__all__ = ["LEAF", "TOLERANCE", "ConeTree", "build_boxes", "build_tree", "cone_min"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -186,3 +186,11 @@ def build_tree(
         size, slope, size_min, fa[order], fb[order], *origin, ha[order], hb[order], box, hmin,
         child, span,
     )  # fmt: skip
+
+
+def build_boxes(a: FloatArray, b: FloatArray) -> tuple[IntArray, FloatArray, IntArray, IntArray]:
+    """The same median-split tree over plain segments ``a -> b``: the segment in each slot,
+    and the nodes' boxes, children and slot ranges (the gap search walks it)."""
+    zero = np.zeros(len(a))
+    order, box, _, child, span, _ = _build(a, b, zero, zero)
+    return order, box, child, span

@@ -11,7 +11,8 @@ from hypothesis import strategies as st
 
 from engine import Cancelled, LimitExceeded, SizingParams, make_region, mesh_region
 from engine.boundary import Region
-from engine.sizing import SizeField, build_size_field, estimate_triangles
+from engine.estimate import estimate_triangles
+from engine.sizing import SizeField, build_size_field
 
 #: Cone evaluations a size-field query may take on average (the old all-pairs field took
 #: 130,000-260,000 on a 1e-6-wide spike).
