@@ -26,10 +26,17 @@ __all__ = ["EQUILATERAL_AREA", "boundary_nodes", "estimate_triangles"]
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
-#: The estimate's weights of the area integral and of the boundary nodes (the front's rows near
-#: the boundary are a little finer than the field): least squares over the public cases, thin
-#: spikes, a channel, a digitised ellipse and a random star (tests/engine/test_estimate.py).
-_PER_AREA, _PER_NODE = 1.04, 0.3
+#: Weights of the area integral where the field is flat, where it grades in leaves the boundary
+#: cuts (the first rows at the boundary, the inside of narrow gaps), where it grades away from
+#: the boundary (the front grows row by row and sizes each row near its base, so those rows are
+#: about 30% finer than the field), and of the boundary nodes: least squares of the relative
+#: error over 30 meshes (the public cases at h and 2h, thin spikes, a channel, a short segment,
+#: digitised ellipses and circles of 1,500 to 20,000 vertices, random stars, growth 1.1 and 1.2;
+#: benchmarks/estimate_bench.py), all within 0.92-1.10 of the real count.
+_WEIGHTS = np.array([0.997, 1.017, 1.302])
+_PER_NODE = 0.479
+#: Quadtree leaves are at most this many local sizes wide.
+_LEAF = 3.0
 #: Triangles per unit area of an equilateral mesh with edge h are 1 / (EQUILATERAL_AREA * h^2).
 EQUILATERAL_AREA = math.sqrt(3.0) / 4.0
 #: Quadtree leaves counted between two looks at the cap.
@@ -46,20 +53,27 @@ def _never() -> bool:
 
 @nb.njit(cache=True)
 def boundary_nodes(
-    a: FloatArray, b: FloatArray, sf: SizeTuple, cap: float
+    a: FloatArray, b: FloatArray, nxt: IntArray, sf: SizeTuple, cap: float
 ) -> float:  # pragma: no cover - compiled
-    """Nodes the discretisation puts on segments ``a[i] -> b[i]`` (their starts included), in
-    steps of the local size (it changes by at most ``slope`` a step); stops past ``cap``."""
+    """Nodes the discretisation puts on segments ``a[i] -> b[i] = a[nxt[i]]`` (their starts
+    included), in steps of the local size (it changes by at most ``slope`` a step); stops past
+    ``cap``. The size at each vertex is taken once, for both segments that meet there."""
+    at_vertex = np.empty(a.shape[0])
+    for i in range(a.shape[0]):
+        at_vertex[i] = size_field_at(sf, a[i, 0], a[i, 1])
     total = 0.0
     for i in range(a.shape[0]):
         ax, ay, bx, by = a[i, 0], a[i, 1], b[i, 0], b[i, 1]
         length = math.hypot(bx - ax, by - ay)
-        h_prev = size_field_at(sf, ax, ay)
+        h_prev = at_vertex[i]
         t, cum = 0.0, 0.0
         while t < 1.0 and total + cum <= cap:
             step = min(h_prev / length, 1.0 - t)
             t += step
-            h = size_field_at(sf, ax + t * (bx - ax), ay + t * (by - ay))
+            if t >= 1.0:
+                h = at_vertex[nxt[i]]
+            else:
+                h = size_field_at(sf, ax + t * (bx - ax), ay + t * (by - ay))
             cum += 0.5 * (1.0 / h + 1.0 / h_prev) * step * length
             h_prev = h
         total += max(round(cum), 1)
@@ -145,13 +159,18 @@ def _leaf_share(shape: shapely.Geometry, centres: FloatArray, inside: NDArray[np
 
 def _area_integral(
     region: Region, field: SizeField, max_cells: int, cap: float, should_stop: StopFn
-) -> float:
-    """Integral of ``1 / (EQUILATERAL_AREA h^2)`` over the region on an adaptive quadtree whose
-    cells are split while larger than twice the size at their centre; stops past ``cap``.
+) -> FloatArray:
+    """Integrals of ``1 / (EQUILATERAL_AREA h^2)`` over the region where the field is flat,
+    where it grades in leaves the boundary cuts and where it grades in the others, on an
+    adaptive quadtree whose cells are split while wider than ``_LEAF`` times the size at their
+    centre; stops once their sum weighted by ``_WEIGHTS`` passes ``cap``.
 
-    Which segments cut a cell is inherited from its parent (one STRtree query, on the first
-    level), and whether an uncut cell is inside too, so point-in-region tests are only taken
-    next to the boundary."""
+    A graded leaf's midpoint value is scaled by ``1 / (1 - (slope cell / 2 h)^2)``, the exact
+    integral of ``1 / h^2`` across a cell where ``h`` grows linearly along one side (the field
+    grows by ``slope`` away from its features), so leaves may be a few sizes wide. Which
+    segments cut a cell is inherited from its parent (one STRtree query, on the first level),
+    and whether an uncut cell is inside too, so point-in-region tests are only taken next to
+    the boundary."""
     shape = region.to_shapely()
     shapely.prepare(shape)
     a, b, _, _ = ring_segments(region)
@@ -169,14 +188,12 @@ def _area_integral(
     boxes = shapely.box(*(centres - 0.5 * cell).T, *(centres + 0.5 * cell).T)
     pair_cell, pair_seg = edges.query(boxes, predicate="intersects")
     lv = _Level(centres, np.full(len(centres), -1, np.int8), pair_cell, pair_seg)
-    total = 0.0
-    while len(lv.centres) and total <= cap:
+    sums = np.zeros(3)
+    # Sizes strictly between the clamps grade (the field's slope there is ``slope``).
+    top, bottom = field.size * (1.0 - 1e-9), field.size_min * (1.0 + 1e-9)
+    while len(lv.centres) and sums @ _WEIGHTS <= cap:
         if should_stop():
             raise Cancelled("stopped while estimating the mesh")
-        h = field(lv.centres)
-        split = h < 0.5 * cell
-        if len(lv.centres) + 3 * int(split.sum()) > max_cells:
-            split[:] = False  # out of cells: count the rest at their centre size
         cut = np.zeros(len(lv.centres), dtype=np.bool_)
         cut[lv.pair_cell] = True
         known = (lv.inside >= 0) | cut
@@ -184,17 +201,31 @@ def _area_integral(
         pts = lv.centres[todo]
         lv.inside[todo] = shapely.contains_xy(shape, pts[:, 0], pts[:, 1])
         lv.inside[cut] = -1
+        # A cell wholly outside adds nothing and is never split: no size is taken there.
+        h = np.full(len(lv.centres), np.inf)
+        some = lv.inside != 0
+        h[some] = field(lv.centres[some])
+        split = h * _LEAF < cell
+        if len(lv.centres) + 3 * int(split.sum()) > max_cells:
+            split[:] = False  # out of cells: count the rest at their centre size
         leaves = np.flatnonzero(~split)
         # Chunks, so that a cap is noticed within a level and not only after it.
         for lo in range(0, len(leaves), _CHUNK):
             ids = leaves[lo : lo + _CHUNK]
-            share = _leaf_share(shape, lv.centres[ids], lv.inside[ids], cell)
-            total += float(np.sum(share / h[ids] ** 2))
-            if total > cap:
-                return total
+            hl = h[ids]
+            share = _leaf_share(shape, lv.centres[ids], lv.inside[ids], cell) / hl**2
+            ramp = (hl < top) & (hl > bottom)
+            free = ramp & (lv.inside[ids] >= 0)
+            spread = np.minimum(0.5 * field.slope * cell / hl[free], 0.5)
+            sums += (
+                share[~ramp].sum(), share[ramp & ~free].sum(),
+                (share[free] / (1.0 - spread**2)).sum(),
+            )  # fmt: skip
+            if sums @ _WEIGHTS > cap:
+                return sums
         lv = _children(lv, split, cell, segs)
         cell *= 0.5
-    return total
+    return sums
 
 
 def estimate_triangles(
@@ -208,15 +239,17 @@ def estimate_triangles(
     """Expected triangle count of the mesh of ``region`` following ``field``.
 
     The larger of the area term (the integral of ``1 / (sqrt(3)/4 h^2)`` on an adaptive
-    quadtree, plus a share per boundary node) and the boundary term (a triangulation of ``n``
+    quadtree, weighted by where the field is flat, grades at the boundary or grades away from
+    it, plus a share per boundary node) and the boundary term (a triangulation of ``n``
     boundary nodes has at least ``n - 2 + 2 * holes`` triangles: what thin features and
     digitised boundaries cost).
     Counting stops once the estimate is past ``cap``: the result is then only known to exceed it.
 
-    >>> from engine.boundary import make_region
+    >>> from engine import SizingParams, make_region
+    >>> from engine.sizing import build_size_field
     >>> square = make_region([([[0, 0], [1, 0], [1, 1], [0, 1]], [])])
     >>> estimate_triangles(square, build_size_field(square, SizingParams(size=0.1)))
-    252
+    249
     """
     progress = progress or _no_progress
     should_stop = should_stop or _never
@@ -225,18 +258,17 @@ def estimate_triangles(
     # No size exceeds the field's plain size, so the region's area at that size is a lower bound
     # on the area term: a cap it already passes is refused before any counting.
     h_max = max(field.size, field.size_min)
-    area_low = _PER_AREA * region.area / (EQUILATERAL_AREA * h_max * h_max)
+    area_low = _WEIGHTS.min() * region.area / (EQUILATERAL_AREA * h_max * h_max)
     if area_low > limit:
         return math.ceil(area_low)
-    a, b, _, _ = ring_segments(region)
-    nodes = boundary_nodes(a, b, field.as_tuple(), limit)
+    a, b, _, nxt = ring_segments(region)
+    nodes = boundary_nodes(a, b, nxt, field.as_tuple(), limit)
     if nodes > limit or area_low + _PER_NODE * nodes > limit:
         return round(max(nodes, area_low + _PER_NODE * nodes))  # at least this many triangles
     holes = len(region.rings) - len(region.parts)
     edge = nodes - 2 * len(region.parts) + 2 * holes
     progress("estimate", 0.5)
-    # The cap in the integral's units: the area term passes it once the integral passes this.
-    area_cap = (limit - _PER_NODE * nodes) / _PER_AREA
-    area = _area_integral(region, field, max_cells, area_cap, should_stop)
+    # The area term passes the cap once the weighted integrals pass this.
+    sums = _area_integral(region, field, max_cells, limit - _PER_NODE * nodes, should_stop)
     progress("estimate", 1.0)
-    return round(max(_PER_AREA * area + _PER_NODE * nodes, edge))
+    return round(max(float(sums @ _WEIGHTS) + _PER_NODE * nodes, edge))

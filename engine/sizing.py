@@ -271,6 +271,9 @@ def build_size_field(
     ga, gb, g0, g1, samples = _gap_features(region, vertex_field, should_stop)
     progress("sizing", 0.8)
     rxy, rh = refinement_features(params.refinements)  # refinements are point features too
+    if len(g0) == 0 and len(rh) == 0 and size_min == 0.0:
+        progress("sizing", 1.0)
+        return SizeField(vertex_field.tree, samples)  # the same features: the same tree
     fa, fb = np.concatenate([vxy, ga, rxy]), np.concatenate([vxy, gb, rxy])
     ha = np.maximum(np.concatenate([vh, g0, rh]), size_min)
     hb = np.maximum(np.concatenate([vh, g1, rh]), size_min)
