@@ -12,10 +12,10 @@ from typing import NamedTuple
 
 import numba as nb
 import numpy as np
-import shapely
 from numpy.typing import NDArray
 
 from .boundary import Region
+from .conetree import build_boxes
 from .errors import Cancelled
 from .gaps import ring_segments
 from .result import ProgressFn, StopFn
@@ -39,6 +39,7 @@ _PER_NODE = 0.479
 _LEAF = 3.0
 #: Triangles per unit area of an equilateral mesh with edge h are 1 / (EQUILATERAL_AREA * h^2).
 EQUILATERAL_AREA = math.sqrt(3.0) / 4.0
+_STACK = 128
 #: Quadtree leaves counted between two looks at the cap.
 _CHUNK = 1 << 14
 
@@ -83,10 +84,94 @@ def boundary_nodes(
 
 
 class _Segments(NamedTuple):
-    """Boundary segments ``a[i] -> b[i]`` as numba kernels take them."""
+    """Boundary segments ``a[i] -> b[i]`` and a box tree over them, as numba kernels take them
+    (see :func:`engine.conetree.build_boxes`)."""
 
     a: FloatArray
     b: FloatArray
+    order: IntArray  #: segment in each tree slot
+    box: FloatArray  #: (m, 4) node boxes
+    child: IntArray  #: (m, 2) children, -1 for a leaf
+    span: IntArray  #: (m, 2) slot range of each node
+
+
+def _segments(region: Region) -> _Segments:
+    a, b, _, _ = ring_segments(region)
+    a, b = np.ascontiguousarray(a, np.float64), np.ascontiguousarray(b, np.float64)
+    return _Segments(a, b, *build_boxes(a, b))
+
+
+@nb.njit(cache=True)
+def _inside(x: FloatArray, y: FloatArray, segs: _Segments) -> NDArray[np.bool_]:  # pragma: no cover
+    """Whether each point lies inside the rings (even-odd crossings of a ray towards +x; the
+    tree only opens boxes the ray meets, so a point costs the segments near the ray)."""
+    out = np.zeros(x.shape[0], dtype=np.bool_)
+    stack = np.empty(_STACK, dtype=np.int64)
+    for p in range(x.shape[0]):
+        px, py = x[p], y[p]
+        odd = False
+        stack[0] = 0
+        top = 1
+        while top > 0:
+            top -= 1
+            node = stack[top]
+            if segs.box[node, 1] > py or segs.box[node, 3] < py or segs.box[node, 2] < px:
+                continue
+            if segs.child[node, 0] >= 0:
+                stack[top], stack[top + 1] = segs.child[node, 0], segs.child[node, 1]
+                top += 2
+                continue
+            for slot in range(segs.span[node, 0], segs.span[node, 1]):
+                s = segs.order[slot]
+                ax, ay, bx, by = segs.a[s, 0], segs.a[s, 1], segs.b[s, 0], segs.b[s, 1]
+                if (ay > py) != (by > py) and ax + (py - ay) * (bx - ax) / (by - ay) > px:
+                    odd = not odd
+        out[p] = odd
+    return out
+
+
+@nb.njit(cache=True)
+def _first_pairs(
+    centres: FloatArray, half: float, segs: _Segments
+) -> tuple[IntArray, IntArray]:  # pragma: no cover - compiled
+    """The (cell, segment) pairs that meet, for squares of half-side ``half`` around
+    ``centres`` (the tests of :func:`_child_pairs`, on the segments the tree finds)."""
+    cells = nb.typed.List.empty_list(nb.int64)
+    found = nb.typed.List.empty_list(nb.int64)
+    stack = np.empty(_STACK, dtype=np.int64)
+    for c in range(centres.shape[0]):
+        cx, cy = centres[c, 0], centres[c, 1]
+        stack[0] = 0
+        top = 1
+        while top > 0:
+            top -= 1
+            node = stack[top]
+            if segs.box[node, 0] > cx + half or segs.box[node, 2] < cx - half:
+                continue
+            if segs.box[node, 1] > cy + half or segs.box[node, 3] < cy - half:
+                continue
+            if segs.child[node, 0] >= 0:
+                stack[top], stack[top + 1] = segs.child[node, 0], segs.child[node, 1]
+                top += 2
+                continue
+            for slot in range(segs.span[node, 0], segs.span[node, 1]):
+                s = segs.order[slot]
+                ax, ay, bx, by = segs.a[s, 0], segs.a[s, 1], segs.b[s, 0], segs.b[s, 1]
+                if min(ax, bx) > cx + half or max(ax, bx) < cx - half:
+                    continue
+                if min(ay, by) > cy + half or max(ay, by) < cy - half:
+                    continue
+                if abs((bx - ax) * (cy - ay) - (by - ay) * (cx - ax)) > half * (
+                    abs(bx - ax) + abs(by - ay)
+                ):
+                    continue
+                cells.append(c)
+                found.append(s)
+    out_cell = np.empty(len(cells), dtype=np.int64)
+    out_seg = np.empty(len(cells), dtype=np.int64)
+    for i in range(len(cells)):
+        out_cell[i], out_seg[i] = cells[i], found[i]
+    return out_cell, out_seg
 
 
 @nb.njit(cache=True)
@@ -142,18 +227,64 @@ def _children(lv: _Level, split: NDArray[np.bool_], cell: float, segs: _Segments
     return _Level(centres, np.tile(lv.inside[split], 4), pc, ps)
 
 
-def _leaf_share(shape: shapely.Geometry, centres: FloatArray, inside: NDArray[np.int8],
-                cell: float) -> FloatArray:  # fmt: skip
-    """Area of each square leaf inside the region, over ``EQUILATERAL_AREA``: known for leaves
-    the boundary does not cut, a 4 x 4 grid of samples for the others (a leaf is at most twice
-    the local size, and gaps ask for sizes below their width, so the grid sees them)."""
-    share = inside.astype(np.float64)
-    cut = np.flatnonzero(inside < 0)
+@nb.njit(cache=True, inline="always")
+def _left(ax: float, ay: float, bx: float, by: float, px: float, py: float) -> bool:
+    return (bx - ax) * (py - ay) - (by - ay) * (px - ax) > 0.0  # pragma: no cover - compiled
+
+
+@nb.njit(cache=True)
+def _cut_shares(
+    centres: FloatArray,
+    cells: IntArray,
+    start: IntArray,
+    seg: IntArray,
+    segs: _Segments,
+    cell: float,
+) -> FloatArray:  # pragma: no cover - compiled
+    """Share of a 4 x 4 grid of samples inside the region, for each cut cell: the centre's side
+    from one ray across the rings, each sample's from the crossings of its path to the centre
+    with the segments ``seg[start[c]:start[c + 1]]`` that meet cell ``c`` (the path stays in the
+    cell), so a cell costs one ray, not sixteen."""
+    out = np.empty(cells.shape[0])
+    centre_in = _inside(centres[cells, 0], centres[cells, 1], segs)
+    for i in range(cells.shape[0]):
+        c = cells[i]
+        cx, cy = centres[c, 0], centres[c, 1]
+        count = 0
+        for j in range(4):
+            for k in range(4):
+                sx, sy = cx + (k - 1.5) * (cell / 4), cy + (j - 1.5) * (cell / 4)
+                odd = centre_in[i]
+                for p in range(start[c], start[c + 1]):
+                    s = seg[p]
+                    ax, ay, bx, by = segs.a[s, 0], segs.a[s, 1], segs.b[s, 0], segs.b[s, 1]
+                    if _left(sx, sy, cx, cy, ax, ay) != _left(sx, sy, cx, cy, bx, by) and _left(
+                        ax, ay, bx, by, sx, sy
+                    ) != _left(ax, ay, bx, by, cx, cy):
+                        odd = not odd
+                count += odd
+        out[i] = count / 16.0
+    return out
+
+
+def _by_cell(lv: _Level) -> tuple[IntArray, IntArray]:
+    """The level's pairs grouped by cell: cell ``c`` meets ``seg[start[c]:start[c + 1]]``."""
+    start = np.zeros(len(lv.centres) + 1, dtype=np.int64)
+    np.cumsum(np.bincount(lv.pair_cell, minlength=len(lv.centres)), out=start[1:])
+    return start, lv.pair_seg[np.argsort(lv.pair_cell, kind="stable")]
+
+
+def _leaf_share(
+    lv: _Level, ids: IntArray, cell: float, segs: _Segments, by_cell: tuple[IntArray, IntArray]
+) -> FloatArray:
+    """Area of each square leaf ``ids`` inside the region, over ``EQUILATERAL_AREA``: known
+    for leaves the boundary does not cut, a 4 x 4 grid of samples for the others (a leaf is at
+    most ``_LEAF`` local sizes wide, and gaps ask for sizes below ``_LEAF / 4`` of their width,
+    so the grid sees them)."""
+    share = lv.inside[ids].astype(np.float64)
+    cut = np.flatnonzero(share < 0)
     if len(cut):
-        off = (np.arange(4) - 1.5) * (cell / 4)
-        sub = centres[cut, None, :] + np.stack(np.meshgrid(off, off), -1).reshape(1, 16, 2)
-        got = shapely.contains_xy(shape, sub[..., 0].ravel(), sub[..., 1].ravel())
-        share[cut] = got.reshape(-1, 16).mean(axis=1)
+        share[cut] = _cut_shares(lv.centres, ids[cut], *by_cell, segs, cell)
     return share * (cell * cell / EQUILATERAL_AREA)
 
 
@@ -168,12 +299,10 @@ def _area_integral(
     A graded leaf's midpoint value is scaled by ``1 / (1 - (slope cell / 2 h)^2)``, the exact
     integral of ``1 / h^2`` across a cell where ``h`` grows linearly along one side (the field
     grows by ``slope`` away from its features), so leaves may be a few sizes wide. Which
-    segments cut a cell is inherited from its parent (one STRtree query, on the first level),
-    and whether an uncut cell is inside too, so point-in-region tests are only taken next to
-    the boundary."""
-    shape = region.to_shapely()
-    shapely.prepare(shape)
-    a, b, _, _ = ring_segments(region)
+    segments cut a cell is inherited from its parent (a box tree over the segments finds them on
+    the first level), and whether an uncut cell is inside too, so point-in-region tests are only
+    taken next to the boundary."""
+    segs = _segments(region)
     x0, y0, x1, y1 = region.bounds
     cell = field.size
     nx = max(math.ceil((x1 - x0) / cell), 1)
@@ -183,10 +312,7 @@ def _area_integral(
         nx, ny = max(math.ceil((x1 - x0) / cell), 1), max(math.ceil((y1 - y0) / cell), 1)
     gx, gy = np.meshgrid(x0 + cell * (np.arange(nx) + 0.5), y0 + cell * (np.arange(ny) + 0.5))
     centres = np.c_[gx.ravel(), gy.ravel()]
-    segs = _Segments(np.ascontiguousarray(a), np.ascontiguousarray(b))
-    edges = shapely.STRtree(shapely.linestrings(np.stack([a, b], axis=1)))
-    boxes = shapely.box(*(centres - 0.5 * cell).T, *(centres + 0.5 * cell).T)
-    pair_cell, pair_seg = edges.query(boxes, predicate="intersects")
+    pair_cell, pair_seg = _first_pairs(centres, 0.5 * cell, segs)
     lv = _Level(centres, np.full(len(centres), -1, np.int8), pair_cell, pair_seg)
     sums = np.zeros(3)
     # Sizes strictly between the clamps grade (the field's slope there is ``slope``).
@@ -199,7 +325,7 @@ def _area_integral(
         known = (lv.inside >= 0) | cut
         todo = np.flatnonzero(~known)
         pts = lv.centres[todo]
-        lv.inside[todo] = shapely.contains_xy(shape, pts[:, 0], pts[:, 1])
+        lv.inside[todo] = _inside(pts[:, 0], pts[:, 1], segs)
         lv.inside[cut] = -1
         # A cell wholly outside adds nothing and is never split: no size is taken there.
         h = np.full(len(lv.centres), np.inf)
@@ -209,11 +335,12 @@ def _area_integral(
         if len(lv.centres) + 3 * int(split.sum()) > max_cells:
             split[:] = False  # out of cells: count the rest at their centre size
         leaves = np.flatnonzero(~split)
+        by_cell = _by_cell(lv)
         # Chunks, so that a cap is noticed within a level and not only after it.
         for lo in range(0, len(leaves), _CHUNK):
             ids = leaves[lo : lo + _CHUNK]
             hl = h[ids]
-            share = _leaf_share(shape, lv.centres[ids], lv.inside[ids], cell) / hl**2
+            share = _leaf_share(lv, ids, cell, segs, by_cell) / hl**2
             ramp = (hl < top) & (hl > bottom)
             free = ramp & (lv.inside[ids] >= 0)
             spread = np.minimum(0.5 * field.slope * cell / hl[free], 0.5)

@@ -6,13 +6,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+import shapely
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from engine import Cancelled, LimitExceeded, SizingParams, make_region, mesh_region
+from engine import Cancelled, InvalidBoundary, LimitExceeded, SizingParams, make_region, mesh_region
 from engine.boundary import Region
-from engine.estimate import estimate_triangles
+from engine.estimate import _cut_shares, _first_pairs, _inside, _segments, estimate_triangles
 from engine.sizing import SizeField, build_size_field
+
+from .regions import region_of, regions
 
 #: Cone evaluations a size-field query may take on average (the old all-pairs field took
 #: 130,000-260,000 on a 1e-6-wide spike).
@@ -183,3 +186,40 @@ def test_a_cap_stops_the_quadtree_at_the_first_level_that_passes_it() -> None:
     capped = _counting(region, 0.05)
     assert estimate_triangles(region, capped, cap=1_000) > 1_000
     assert len(capped.asked) == 1 < len(whole.asked)
+
+
+@settings(max_examples=25, deadline=None)
+@given(case=regions(), seed=st.integers(0, 2**32 - 1))
+def test_the_point_in_region_kernels_agree_with_geos(
+    case: tuple[tuple[list[list[float]], list[list[list[float]]]], float], seed: int
+) -> None:
+    (outer, holes), _ = case
+    try:
+        region = region_of((outer, holes))
+    except InvalidBoundary:  # a drawn hole touching the outer ring
+        assume(False)
+    shape = region.to_shapely()
+    segs = _segments(region)
+    x0, y0, x1, y1 = region.bounds
+    pts = np.random.default_rng(seed).uniform([x0, y0], [x1, y1], (500, 2))
+    inside = _inside(pts[:, 0], pts[:, 1], segs)
+    np.testing.assert_array_equal(inside, shapely.contains_xy(shape, pts[:, 0], pts[:, 1]))
+    # The first quadtree level's (cell, segment) pairs are those GEOS finds intersecting.
+    cell = 0.1 * max(x1 - x0, y1 - y0)
+    centres = pts[:50]
+    got = set(zip(*_first_pairs(centres, 0.5 * cell, segs), strict=True))
+    boxes = shapely.box(*(centres - 0.5 * cell).T, *(centres + 0.5 * cell).T)
+    lines = shapely.linestrings(np.stack([segs.a, segs.b], axis=1))
+    want = shapely.STRtree(lines).query(boxes, predicate="intersects")
+    assert got == set(zip(want[0].tolist(), want[1].tolist(), strict=True))
+    # A cut cell's 16 samples: its centre's side from one ray, each sample's from the
+    # segments of the cell its path to the centre crosses.
+    cells = np.unique(want[0])
+    start = np.zeros(len(centres) + 1, dtype=np.int64)
+    np.cumsum(np.bincount(want[0], minlength=len(centres)), out=start[1:])
+    seg = want[1][np.argsort(want[0], kind="stable")]
+    shares = _cut_shares(centres, cells, start, seg, segs, cell)
+    off = (np.arange(4) - 1.5) * (cell / 4)
+    sub = centres[cells, None, :] + np.stack(np.meshgrid(off, off), -1).reshape(1, 16, 2)
+    grid = shapely.contains_xy(shape, sub[..., 0].ravel(), sub[..., 1].ravel())
+    np.testing.assert_allclose(shares, grid.reshape(-1, 16).mean(axis=1))
