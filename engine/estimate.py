@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .boundary import Region
-from .conetree import build_boxes
+from .conetree import build_boxes, slots_meeting
 from .errors import Cancelled
 from .gaps import ring_segments
 from .result import ProgressFn, StopFn
@@ -107,27 +107,32 @@ def _inside(x: FloatArray, y: FloatArray, segs: _Segments) -> NDArray[np.bool_]:
     tree only opens boxes the ray meets, so a point costs the segments near the ray)."""
     out = np.zeros(x.shape[0], dtype=np.bool_)
     stack = np.empty(_STACK, dtype=np.int64)
+    slots = np.empty(segs.order.shape[0], dtype=np.int64)
     for p in range(x.shape[0]):
         px, py = x[p], y[p]
         odd = False
-        stack[0] = 0
-        top = 1
-        while top > 0:
-            top -= 1
-            node = stack[top]
-            if segs.box[node, 1] > py or segs.box[node, 3] < py or segs.box[node, 2] < px:
-                continue
-            if segs.child[node, 0] >= 0:
-                stack[top], stack[top + 1] = segs.child[node, 0], segs.child[node, 1]
-                top += 2
-                continue
-            for slot in range(segs.span[node, 0], segs.span[node, 1]):
-                s = segs.order[slot]
-                ax, ay, bx, by = segs.a[s, 0], segs.a[s, 1], segs.b[s, 0], segs.b[s, 1]
-                if (ay > py) != (by > py) and ax + (py - ay) * (bx - ax) / (by - ay) > px:
-                    odd = not odd
+        ray = (px, py, np.inf, py)
+        for i in range(slots_meeting(segs.box, segs.child, segs.span, ray, stack, slots)):
+            s = segs.order[slots[i]]
+            ax, ay, bx, by = segs.a[s, 0], segs.a[s, 1], segs.b[s, 0], segs.b[s, 1]
+            if (ay > py) != (by > py) and ax + (py - ay) * (bx - ax) / (by - ay) > px:
+                odd = not odd
         out[p] = odd
     return out
+
+
+@nb.njit(cache=True, inline="always")
+def _meets(
+    ax: float, ay: float, bx: float, by: float, cx: float, cy: float, half: float
+) -> bool:  # pragma: no cover - compiled
+    """Whether segment ``a -> b`` meets the square of half-side ``half`` around ``c``
+    (separating axes: the two boxes, and the segment's normal)."""
+    if min(ax, bx) > cx + half or max(ax, bx) < cx - half:
+        return False
+    if min(ay, by) > cy + half or max(ay, by) < cy - half:
+        return False
+    cross = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+    return abs(cross) <= half * (abs(bx - ax) + abs(by - ay))
 
 
 @nb.njit(cache=True)
@@ -135,36 +140,17 @@ def _first_pairs(
     centres: FloatArray, half: float, segs: _Segments
 ) -> tuple[IntArray, IntArray]:  # pragma: no cover - compiled
     """The (cell, segment) pairs that meet, for squares of half-side ``half`` around
-    ``centres`` (the tests of :func:`_child_pairs`, on the segments the tree finds)."""
+    ``centres``, among the segments the tree finds near each."""
     cells = nb.typed.List.empty_list(nb.int64)
     found = nb.typed.List.empty_list(nb.int64)
     stack = np.empty(_STACK, dtype=np.int64)
+    slots = np.empty(segs.order.shape[0], dtype=np.int64)
     for c in range(centres.shape[0]):
         cx, cy = centres[c, 0], centres[c, 1]
-        stack[0] = 0
-        top = 1
-        while top > 0:
-            top -= 1
-            node = stack[top]
-            if segs.box[node, 0] > cx + half or segs.box[node, 2] < cx - half:
-                continue
-            if segs.box[node, 1] > cy + half or segs.box[node, 3] < cy - half:
-                continue
-            if segs.child[node, 0] >= 0:
-                stack[top], stack[top + 1] = segs.child[node, 0], segs.child[node, 1]
-                top += 2
-                continue
-            for slot in range(segs.span[node, 0], segs.span[node, 1]):
-                s = segs.order[slot]
-                ax, ay, bx, by = segs.a[s, 0], segs.a[s, 1], segs.b[s, 0], segs.b[s, 1]
-                if min(ax, bx) > cx + half or max(ax, bx) < cx - half:
-                    continue
-                if min(ay, by) > cy + half or max(ay, by) < cy - half:
-                    continue
-                if abs((bx - ax) * (cy - ay) - (by - ay) * (cx - ax)) > half * (
-                    abs(bx - ax) + abs(by - ay)
-                ):
-                    continue
+        square = (cx - half, cy - half, cx + half, cy + half)
+        for i in range(slots_meeting(segs.box, segs.child, segs.span, square, stack, slots)):
+            s = segs.order[slots[i]]
+            if _meets(segs.a[s, 0], segs.a[s, 1], segs.b[s, 0], segs.b[s, 1], cx, cy, half):
                 cells.append(c)
                 found.append(s)
     out_cell = np.empty(len(cells), dtype=np.int64)
@@ -188,18 +174,11 @@ def _child_pairs(
     for i in range(parent.shape[0]):
         s = seg[i]
         ax, ay, bx, by = segs.a[s, 0], segs.a[s, 1], segs.b[s, 0], segs.b[s, 1]
-        reach = quarter * (abs(bx - ax) + abs(by - ay))
         for k in range(4):
             c = k * ns + parent[i]
-            cx, cy = centres[c, 0], centres[c, 1]
-            if min(ax, bx) > cx + quarter or max(ax, bx) < cx - quarter:
-                continue
-            if min(ay, by) > cy + quarter or max(ay, by) < cy - quarter:
-                continue
-            if abs((bx - ax) * (cy - ay) - (by - ay) * (cx - ax)) > reach:
-                continue
-            out_cell[n], out_seg[n] = c, s
-            n += 1
+            if _meets(ax, ay, bx, by, centres[c, 0], centres[c, 1], quarter):
+                out_cell[n], out_seg[n] = c, s
+                n += 1
     return out_cell[:n], out_seg[:n]
 
 

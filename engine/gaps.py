@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .boundary import Region
-from .conetree import ConeTree, build_boxes, cone_min
+from .conetree import ConeTree, build_boxes, cone_min, slots_meeting
 
 __all__ = ["GapSearch", "gap_search", "gap_widths", "ring_segments"]
 
@@ -75,42 +75,29 @@ def gap_search(region: Region, reach: ConeTree, factor: float) -> GapSearch:
 
 @nb.njit(cache=True)
 def _facing(
-    g: GapSearch, own: int, px: float, py: float, reach: float
+    g: GapSearch, own: int, px: float, py: float, reach: float, stack: IntArray, slots: IntArray
 ) -> float:  # pragma: no cover - compiled
     """Smallest ``factor * distance`` from ``p`` to a segment it faces within ``reach``."""
     best = np.inf
-    stack = np.empty(_STACK, dtype=np.int64)
-    stack[0] = 0
-    top = 1
     npx, npy = g.normal[own, 0], g.normal[own, 1]
-    while top > 0:
-        top -= 1
-        node = stack[top]
-        dx = max(g.box[node, 0] - px, 0.0, px - g.box[node, 2])
-        dy = max(g.box[node, 1] - py, 0.0, py - g.box[node, 3])
-        if dx * dx + dy * dy > reach * reach:
+    query = (px - reach, py - reach, px + reach, py + reach)
+    for i in range(slots_meeting(g.box, g.child, g.span, query, stack, slots)):
+        s = g.order[slots[i]]
+        if s == own or s == g.prev[own] or s == g.nxt[own]:
+            continue  # adjacent segments meet at a corner: the corner feature covers that wedge
+        sax, say = g.a[s, 0], g.a[s, 1]
+        ddx, ddy = g.b[s, 0] - sax, g.b[s, 1] - say
+        t = ((px - sax) * ddx + (py - say) * ddy) / max(ddx * ddx + ddy * ddy, 1e-300)
+        t = min(max(t, 0.0), 1.0)
+        vx, vy = sax + t * ddx - px, say + t * ddy - py
+        dist = np.hypot(vx, vy)
+        if dist > reach or dist <= 0.0:
             continue
-        if g.child[node, 0] >= 0:
-            stack[top], stack[top + 1] = g.child[node, 0], g.child[node, 1]
-            top += 2
-            continue
-        for slot in range(g.span[node, 0], g.span[node, 1]):
-            s = g.order[slot]
-            if s == own or s == g.prev[own] or s == g.nxt[own]:
-                continue  # adjacent segments meet at a corner: the corner feature covers that wedge
-            sax, say = g.a[s, 0], g.a[s, 1]
-            ddx, ddy = g.b[s, 0] - sax, g.b[s, 1] - say
-            t = ((px - sax) * ddx + (py - say) * ddy) / max(ddx * ddx + ddy * ddy, 1e-300)
-            t = min(max(t, 0.0), 1.0)
-            vx, vy = sax + t * ddx - px, say + t * ddy - py
-            dist = np.hypot(vx, vy)
-            if dist > reach or dist <= 0.0:
-                continue
-            ln = max(np.hypot(ddx, ddy), 1e-300)
-            nqx, nqy = -ddy / ln, ddx / ln
-            ahead = vx * npx + vy * npy > FACING_COS * dist
-            if ahead and -vx * nqx + -vy * nqy > FACING_COS * dist:
-                best = min(best, g.factor * dist)
+        ln = max(np.hypot(ddx, ddy), 1e-300)
+        nqx, nqy = -ddy / ln, ddx / ln
+        ahead = vx * npx + vy * npy > FACING_COS * dist
+        if ahead and -vx * nqx + -vy * nqy > FACING_COS * dist:
+            best = min(best, g.factor * dist)
     return best
 
 
@@ -119,9 +106,11 @@ def gap_widths(g: GapSearch, seg: IntArray, t: FloatArray) -> FloatArray:  # pra
     """Size each point ``a[seg] + t (b[seg] - a[seg])`` asks for because it faces another part of
     the boundary within its reach (infinity where it faces none)."""
     out = np.empty(seg.shape[0])
+    stack = np.empty(_STACK, dtype=np.int64)
+    slots = np.empty(g.order.shape[0], dtype=np.int64)
     for i in range(seg.shape[0]):
         s = seg[i]
         px = g.a[s, 0] + t[i] * (g.b[s, 0] - g.a[s, 0])
         py = g.a[s, 1] + t[i] * (g.b[s, 1] - g.a[s, 1])
-        out[i] = _facing(g, s, px, py, cone_min(g.reach, px, py)[0] / g.factor)
+        out[i] = _facing(g, s, px, py, cone_min(g.reach, px, py)[0] / g.factor, stack, slots)
     return out
