@@ -40,9 +40,10 @@ from record import write_rows  # noqa: E402
 from engine import Mesh, Region, SizingParams, make_region, mesh_region, triangle_quality  # noqa: E402
 from engine.collapse import collapse_edges  # noqa: E402
 from engine.discretize import discretize  # noqa: E402
+from engine.estimate import estimate_triangles  # noqa: E402
 from engine.front import advance_front  # noqa: E402
 from engine.relax import relax  # noqa: E402
-from engine.sizing import SizeField, build_size_field, estimate_triangles  # noqa: E402
+from engine.sizing import SizeField, build_size_field  # noqa: E402
 
 CASES = ROOT / "tests" / "data" / "cases"
 LARGE_H = 0.003  # unit square: about 257,000 triangles

@@ -24,6 +24,7 @@ from .errors import (
     LimitExceeded,
     MeshingError,
 )
+from .estimate import estimate_triangles
 from .fitness import FITNESS, node_fitness
 from .mesh import Mesh, validate_mesh
 from .params import PipelineParams, SizingParams, SmoothingParams
@@ -32,7 +33,6 @@ from .quality import METRICS, Metric, TriangleQuality, register_metric, summariz
 from .refinement import Refinement
 from .resample import Resampled, resample_region
 from .result import ProgressFn, Result, SmoothOutcome, Snapshot, StopFn, SweepStats
-from .sizing import estimate_triangles
 from .smoothing import SMOOTHERS
 from .subdomains import Subdomains, mesh_subdomains
 from .tags import MeshTags, Tagging, TagRun, tag_mesh

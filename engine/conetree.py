@@ -18,7 +18,9 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["LEAF", "TOLERANCE", "ConeTree", "build_tree", "cone_min"]
+__all__ = [
+    "LEAF", "TOLERANCE", "ConeTree", "build_boxes", "build_tree", "cone_min", "slots_meeting",
+]  # fmt: skip
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -186,3 +188,42 @@ def build_tree(
         size, slope, size_min, fa[order], fb[order], *origin, ha[order], hb[order], box, hmin,
         child, span,
     )  # fmt: skip
+
+
+def build_boxes(a: FloatArray, b: FloatArray) -> tuple[IntArray, FloatArray, IntArray, IntArray]:
+    """The same median-split tree over plain segments ``a -> b``: the segment in each slot,
+    and the nodes' boxes, children and slot ranges (the gap search walks it)."""
+    zero = np.zeros(len(a))
+    order, box, _, child, span, _ = _build(a, b, zero, zero)
+    return order, box, child, span
+
+
+@nb.njit(cache=True)
+def slots_meeting(
+    box: FloatArray,
+    child: IntArray,
+    span: IntArray,
+    query: tuple[float, float, float, float],
+    stack: IntArray,
+    out: IntArray,
+) -> int:  # pragma: no cover - compiled
+    """Writes to ``out`` the slots of the leaves of a :func:`build_boxes` tree whose boxes meet
+    the box ``query`` (x0, y0, x1, y1; infinite sides allowed) and returns how many; ``stack``
+    (128 entries) and ``out`` (one entry per slot) are the caller's scratch."""
+    q0, q1, q2, q3 = query
+    n = 0
+    stack[0] = 0
+    top = 1
+    while top > 0:
+        top -= 1
+        node = stack[top]
+        if box[node, 0] > q2 or box[node, 2] < q0 or box[node, 1] > q3 or box[node, 3] < q1:
+            continue
+        if child[node, 0] >= 0:
+            stack[top], stack[top + 1] = child[node, 0], child[node, 1]
+            top += 2
+            continue
+        for slot in range(span[node, 0], span[node, 1]):
+            out[n] = slot
+            n += 1
+    return n

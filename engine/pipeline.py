@@ -14,6 +14,7 @@ from .boundary import Region
 from .collapse import collapse_edges
 from .discretize import discretize
 from .errors import Cancelled, LimitExceeded
+from .estimate import estimate_triangles
 from .fitness import node_fitness
 from .front import advance_front
 from .mesh import Mesh
@@ -22,7 +23,7 @@ from .quality import shape_quality, summarize, triangle_quality
 from .relax import relax
 from .resample import resample_region
 from .result import ProgressFn, Result, Snapshot, StopFn
-from .sizing import build_size_field, estimate_triangles
+from .sizing import build_size_field
 from .smoothing import SMOOTHERS, smooth_points
 from .swap import regularise_valence, swap_diagonals
 

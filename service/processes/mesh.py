@@ -231,7 +231,7 @@ def estimate_mesh(
 
     >>> square = engine.make_region([([[0, 0], [1, 0], [1, 1], [0, 1]], [])])
     >>> estimate_mesh(square, engine.SizingParams(size=0.1))
-    252
+    249
     """
     from engine.sizing import build_size_field
 

@@ -9,8 +9,9 @@ import pytest
 
 from engine import SizingParams, make_region, mesh_region, triangle_quality
 from engine.errors import Cancelled, LimitExceeded
+from engine.estimate import estimate_triangles
 from engine.quality import corner_angles
-from engine.sizing import build_size_field, estimate_triangles
+from engine.sizing import build_size_field
 
 from ..conftest import load_case
 from .regions import assert_conforming

@@ -4,11 +4,16 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from engine import SizingParams, make_region, mesh_region, triangle_quality
+from engine.boundary import Region
 from engine.discretize import discretize
+from engine.gaps import gap_search, gap_widths, ring_segments
 from engine.sizing import GAP_FACTOR, build_size_field
 
+from .control_strategies import valid_regions
 from .regions import assert_conforming
 
 
@@ -75,3 +80,39 @@ def test_discretisation_keeps_input_vertices_and_splits_evenly() -> None:
     np.testing.assert_allclose(lengths, 1 / 3)  # round(1 / 0.3) = 3 equal pieces per side
     for corner in [[0, 0], [1, 0], [1, 1], [0, 1]]:
         assert np.any(np.all(boundary.points == corner, axis=1))
+
+
+def _facing_brute_force(
+    region: Region, seg: np.ndarray, t: np.ndarray, reach: np.ndarray
+) -> np.ndarray:
+    """Gap widths by comparing every sample with every segment (what the tree must find)."""
+    a, b, prev, nxt = ring_segments(region)
+    d = b - a
+    n_seg = np.stack([-d[:, 1], d[:, 0]], axis=1) / np.hypot(d[:, 0], d[:, 1])[:, None]
+    p = a[seg] + t[:, None] * d[seg]
+    u = np.clip(np.einsum("ijk,jk->ij", p[:, None] - a[None], d) / (d * d).sum(1), 0, 1)
+    v = a[None] + u[..., None] * d[None] - p[:, None]
+    dist = np.hypot(v[..., 0], v[..., 1])
+    facing = (np.einsum("ijk,ik->ij", v, n_seg[seg]) > 0.5 * dist) & (
+        np.einsum("ijk,jk->ij", -v, n_seg) > 0.5 * dist
+    )
+    cols = np.arange(len(a))[None]
+    own = seg[:, None]
+    adjacent = (cols == own) | (cols == prev[own]) | (cols == nxt[own])
+    ok = facing & ~adjacent & (dist > 0) & (dist <= reach[:, None])
+    return np.where(ok, GAP_FACTOR * dist, np.inf).min(axis=1)
+
+
+@settings(max_examples=25, deadline=None)
+@given(case=valid_regions(), seed=st.integers(0, 2**32 - 1))
+def test_the_gap_search_finds_what_all_pairs_find(case: tuple[Region, float], seed: int) -> None:
+    region, size = case
+    vertex_field = build_size_field(region, SizingParams(size=size))
+    search = gap_search(region, vertex_field.tree, GAP_FACTOR)
+    rng = np.random.default_rng(seed)
+    seg = rng.integers(0, len(search.a), 300)
+    t = rng.uniform(0, 1, 300)
+    got = gap_widths(search, seg, t)
+    pts = search.a[seg] + t[:, None] * (search.b[seg] - search.a[seg])
+    want = _facing_brute_force(region, seg, t, vertex_field(pts) / GAP_FACTOR)
+    np.testing.assert_array_equal(got, want)
