@@ -167,6 +167,8 @@ def _new_index(points: FloatArray, field: SizeField, n_edges: int, n_slots: int)
         fine=index.FINE_EDGE * float(cell),
         hits=np.empty(n_slots, dtype=np.int64),
         cand=np.empty(MAX_CANDIDATES, dtype=np.int64),
+        stack=np.empty(4 * index.MAX_DEPTH + 8, dtype=np.int64),
+        bounds=np.empty((4 * index.MAX_DEPTH + 8, 3)),
     )
 
 
@@ -215,6 +217,7 @@ def _new_front(boundary: Discretized, field: SizeField, est: int) -> Front:
         slots=slots,
         st=st,
         size=float(field.size),
+        touched=np.empty(8, dtype=np.int64),
     )
 
 

@@ -12,7 +12,6 @@ trees stay empty and the grid answers alone, in the same order as before the tre
 from __future__ import annotations
 
 import numba as nb
-import numpy as np
 
 from .constants import ALIVE, NE, NEXT, NN, NS, QUERY, STAMP, VER, VERT
 from .state import Front, Index, IntArray, uncounted
@@ -161,14 +160,13 @@ def gather(fr: Front, ix: Index, x0: float, y0: float, x1: float, y1: float) -> 
     return n
 
 
-@nb.njit(cache=True)
+@uncounted()
 def _gather_fine(fr: Front, ix: Index, x0: float, y0: float, x1: float, y1: float, n: int) -> int:
     """Append to ``ix.hits[n:]`` the live slots of the trees whose nodes may reach the box."""
     slots, ent, node, hits = fr.slots, ix.ent, ix.node, ix.hits
     q = fr.st[QUERY]
     # Depth first: at most three siblings wait per level.
-    stack = np.empty(4 * MAX_DEPTH + 8, dtype=np.int64)
-    bounds = np.empty((4 * MAX_DEPTH + 8, 3))
+    stack, bounds = ix.stack, ix.bounds
     # Entries sit in nodes at most ``fine`` wide, so they reach at most LOOSE of that outside
     # their cell.
     pad = LOOSE * ix.fine

@@ -2,9 +2,6 @@
 
 from __future__ import annotations
 
-import numba as nb
-import numpy as np
-
 from . import index, queue
 from .constants import ALIVE, CURVED, FAIL, LAYER, LIVE, NEXT, NS, NT, PREV, STAMP, VER, VERT
 from .state import Front, Heap, Index, uncounted
@@ -65,7 +62,7 @@ def refresh(fr: Front, ix: Index, hp: Heap, s: int) -> bool:
     return queue.push(fr, hp, queue.slot_key(fr, s), s, slots[s, VER])
 
 
-@nb.njit(cache=True)
+@uncounted()
 def apply(fr: Front, ix: Index, hp: Heap, e: int, k: int, w: int) -> bool:
     """Add triangle (u, v, w) on the edge of slot ``e``; ``k`` is w's slot (-1 for a new point).
 
@@ -79,7 +76,7 @@ def apply(fr: Front, ix: Index, hp: Heap, e: int, k: int, w: int) -> bool:
     st[NT] += 1
     layer = slots[e, LAYER] + 1
     curved = slots[e, CURVED]
-    touched = np.empty(8, dtype=np.int64)
+    touched = fr.touched
     nt = 0
     if k < 0:
         q = new_slot(fr, w)

@@ -9,7 +9,7 @@ with it, every array taken out of a tuple was counted up and down with atomic in
 and those took half of the front's time (perf: ``NRT_incref`` / ``NRT_decref``; 250,000 ->
 400,000 triangles per CPU-second on the uniform square, same meshes). The arrays belong to
 the driver for the whole run, so no count is needed; a kernel without counting cannot
-allocate (``slots.apply`` and ``index._gather_fine``, which do, keep it).
+allocate, so its scratch arrays are in the tuples too (``touched``, ``stack``, ``bounds``).
 """
 
 from __future__ import annotations
@@ -38,9 +38,17 @@ def uncounted(inline: Literal["never", "always"] = "never") -> Callable[[_F], _F
 #: The front's kernels compiled without reference counting, by module (see above).
 NO_REFCOUNT: dict[str, tuple[str, ...]] = {
     "checks": ("wedge_ok", "front_clear", "candidates_near", "gap_ahead"),
-    "index": ("cells", "_new_node", "_insert_fine", "insert", "rebuild", "_collect"),
+    "index": (
+        "cells",
+        "_new_node",
+        "_insert_fine",
+        "insert",
+        "rebuild",
+        "_collect",
+        "_gather_fine",
+    ),
     "queue": ("push", "pop", "slot_angle", "slot_key", "rebuild"),
-    "slots": ("new_slot", "kill", "remove_spike", "refresh"),
+    "slots": ("new_slot", "kill", "remove_spike", "refresh", "apply"),
     "driver": ("_run", "_init"),
 }
 
@@ -53,6 +61,7 @@ class Front(NamedTuple):
     slots: IntArray  #: (s, N_COLS) slot table (see constants)
     st: IntArray  #: (N_STATE,) scalar state (see constants)
     size: float  #: the field's size away from features (tells fine fronts apart)
+    touched: IntArray  #: scratch (8,): the slots one triangle's update touched
 
 
 class Heap(NamedTuple):
@@ -83,3 +92,5 @@ class Index(NamedTuple):
     ny: int  #: cells along y
     hits: IntArray  #: scratch: the slots a query found (one per slot at most)
     cand: IntArray  #: scratch: candidate apex slots
+    stack: IntArray  #: scratch: tree nodes a query has still to visit
+    bounds: FloatArray  #: scratch: their corners and sides (x, y, side)
