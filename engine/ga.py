@@ -244,4 +244,4 @@ def ga_smooth(
         history.append(stats)
         if stats.max_change < params.tolerance:
             break
-    return SmoothOutcome(points=run.points, history=tuple(history))
+    return SmoothOutcome(points=run.points, history=tuple(history), fitness=run.fitness)

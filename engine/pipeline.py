@@ -113,8 +113,19 @@ def _never() -> bool:
     return False
 
 
-def assess_mesh(mesh: Mesh, smoothing: SmoothingParams | None = None) -> Snapshot:
+def assess_mesh(
+    mesh: Mesh,
+    smoothing: SmoothingParams | None = None,
+    *,
+    fitness: NDArray[np.float64] | None = None,
+    boundary: NDArray[np.bool_] | None = None,
+) -> Snapshot:
     """Per-triangle quality, per-node fitness and the summary of ``mesh``.
+
+    ``fitness`` (the node fitness by ``smoothing.fitness``) and ``boundary`` (the mesh's
+    boundary nodes) are computed unless given: a smoother that kept the exact fitness of
+    the nodes it moved, and a mesh of the same connectivity as one assessed before, spare
+    the final assessment that work.
 
     >>> from engine.mesh import Mesh
     >>> pts = np.array([[0.0, 0.0], [1.0, 0.0], [0.5, np.sqrt(3) / 2]])
@@ -124,10 +135,10 @@ def assess_mesh(mesh: Mesh, smoothing: SmoothingParams | None = None) -> Snapsho
     """
     s = smoothing or SmoothingParams()
     q = triangle_quality(mesh)
-    fit = node_fitness(mesh, s.fitness, s.alpha, s.beta)
+    fit = node_fitness(mesh, s.fitness, s.alpha, s.beta) if fitness is None else fitness
     summary: dict[str, Any] = summarize(q)
     summary["points"] = mesh.n_points
-    movable = ~mesh.boundary_nodes
+    movable = ~(mesh.boundary_nodes if boundary is None else boundary)
     inner = fit[movable]
     summary["fitness"] = {
         "function": s.fitness,
@@ -243,7 +254,13 @@ def _improve(
     progress("smooth", 1.0)
     timings["smooth"] = time.perf_counter() - t
     unmoved = np.array_equal(outcome.points, swapped_mesh.points)
-    final = second if unmoved else assess_mesh(swapped_mesh.with_points(outcome.points), smoothing)
+    final = second
+    if not unmoved:
+        moved = swapped_mesh.with_points(outcome.points)
+        # Same connectivity, same boundary (unless a subclass defines its boundary otherwise).
+        same = type(moved) is type(swapped_mesh)
+        boundary = swapped_mesh.boundary_nodes if same else None
+        final = assess_mesh(moved, smoothing, fitness=outcome.fitness, boundary=boundary)
     timings["total"] = time.perf_counter() - started
     return Result(
         initial=first,

@@ -50,6 +50,9 @@ class SmoothOutcome:
 
     points: FloatArray
     history: tuple[SweepStats, ...] = ()
+    #: The exact node fitness (the smoothing's fitness function) at ``points``, when the
+    #: smoother keeps it (the GA does), so that the final assessment need not compute it again.
+    fitness: FloatArray | None = None
 
 
 @dataclass(frozen=True)

@@ -4,15 +4,13 @@ from __future__ import annotations
 
 import math
 
-import numba as nb
-
 from .constants import NEXT, PREV, TWO_PI, VERT
 from .geometry import ccw, orient, seg_dist2, segments_meet
 from .index import gather
-from .state import FloatArray, Front, Index, IntArray
+from .state import FloatArray, Front, Index, IntArray, uncounted
 
 
-@nb.njit(cache=True)
+@uncounted()
 def wedge_ok(
     slots: IntArray, pts: FloatArray, e: int, k: int, w: int, wx: float, wy: float, tol: float
 ) -> bool:
@@ -53,7 +51,7 @@ def wedge_ok(
     return True
 
 
-@nb.njit(cache=True)
+@uncounted()
 def front_clear(
     fr: Front, ix: Index, e: int, w: int, wx: float, wy: float,
     clear_edge: float, clear_vertex: float, tol: float,
@@ -107,7 +105,7 @@ def front_clear(
     return True
 
 
-@nb.njit(cache=True)
+@uncounted()
 def candidates_near(fr: Front, ix: Index, px: float, py: float, r: float) -> int:
     """Write the front slots whose vertex lies within ``r`` of (px, py) to ``ix.cand``;
     returns how many."""
@@ -123,7 +121,7 @@ def candidates_near(fr: Front, ix: Index, px: float, py: float, r: float) -> int
     return n
 
 
-@nb.njit(cache=True)
+@uncounted()
 def gap_ahead(
     fr: Front, ix: Index, e: int, e2: int, mx: float, my: float, dx: float, dy: float,
     reach: float,

@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 from typing import Any, TypeVar, cast
 
-import numba as nb
 import numpy as np
 
 from ..cavity import fill_cavities
@@ -48,12 +47,12 @@ from .constants import (
     VERT,
 )  # fmt: skip
 from .rules import process
-from .state import FloatArray, Front, Heap, Index, IntArray
+from .state import FloatArray, Front, Heap, Index, IntArray, uncounted
 
 __all__ = ["advance_front"]
 
 
-@nb.njit(cache=True)
+@uncounted()
 def _run(fr: Front, ix: Index, hp: Heap, sf: SizeTuple, budget: int) -> int:
     """Advance the front by up to ``budget`` triangles; returns a status code."""
     slots, st = fr.slots, fr.st
@@ -108,7 +107,7 @@ def _run(fr: Front, ix: Index, hp: Heap, sf: SizeTuple, budget: int) -> int:
     return BUDGET
 
 
-@nb.njit(cache=True)
+@uncounted()
 def _init(fr: Front, ix: Index, hp: Heap) -> bool:
     """Index and queue every slot; False when the index or the heap is too small."""
     return index.rebuild(fr, ix) and queue.rebuild(fr, hp)
@@ -168,6 +167,8 @@ def _new_index(points: FloatArray, field: SizeField, n_edges: int, n_slots: int)
         fine=index.FINE_EDGE * float(cell),
         hits=np.empty(n_slots, dtype=np.int64),
         cand=np.empty(MAX_CANDIDATES, dtype=np.int64),
+        stack=np.empty(4 * index.MAX_DEPTH + 8, dtype=np.int64),
+        bounds=np.empty((4 * index.MAX_DEPTH + 8, 3)),
     )
 
 
@@ -216,6 +217,7 @@ def _new_front(boundary: Discretized, field: SizeField, est: int) -> Front:
         slots=slots,
         st=st,
         size=float(field.size),
+        touched=np.empty(8, dtype=np.int64),
     )
 
 

@@ -12,10 +12,9 @@ trees stay empty and the grid answers alone, in the same order as before the tre
 from __future__ import annotations
 
 import numba as nb
-import numpy as np
 
 from .constants import ALIVE, NE, NEXT, NN, NS, QUERY, STAMP, VER, VERT
-from .state import Front, Index, IntArray
+from .state import Front, Index, IntArray, uncounted
 
 #: Edges whose bounding box is at most this fraction of a cell wide go to the trees.
 FINE_EDGE = 0.25
@@ -30,7 +29,7 @@ LIST, TREE = 0, 1
 HEAD = 4
 
 
-@nb.njit(cache=True, inline="always")
+@uncounted(inline="always")
 def cells(ix: Index, x0: float, y0: float, x1: float, y1: float) -> tuple[int, int, int, int]:
     """Grid cell index ranges (i0, i1, j0, j1), clamped to the grid, covering a box."""
     i0 = min(max(int((x0 - ix.x0) / ix.cell), 0), ix.nx - 1)
@@ -40,7 +39,7 @@ def cells(ix: Index, x0: float, y0: float, x1: float, y1: float) -> tuple[int, i
     return i0, i1, j0, j1
 
 
-@nb.njit(cache=True)
+@uncounted()
 def _new_node(fr: Front, ix: Index) -> int:
     n = fr.st[NN]
     fr.st[NN] += 1
@@ -48,7 +47,7 @@ def _new_node(fr: Front, ix: Index) -> int:
     return n
 
 
-@nb.njit(cache=True)
+@uncounted()
 def _insert_fine(fr: Front, ix: Index, s: int, x0: float, y0: float, x1: float, y1: float) -> bool:
     """List slot ``s``'s edge (box x0..x1, y0..y1) in the tree of the cell of its centre, in
     the smallest node that holds the centre and is at least as wide as the box."""
@@ -86,7 +85,7 @@ def _insert_fine(fr: Front, ix: Index, s: int, x0: float, y0: float, x1: float, 
     return True
 
 
-@nb.njit(cache=True)
+@uncounted()
 def insert(fr: Front, ix: Index, s: int) -> bool:
     """Index the edge of slot ``s`` at its current version; False when out of room."""
     slots, pts, st = fr.slots, fr.pts, fr.st
@@ -111,7 +110,7 @@ def insert(fr: Front, ix: Index, s: int) -> bool:
     return True
 
 
-@nb.njit(cache=True)
+@uncounted()
 def rebuild(fr: Front, ix: Index) -> bool:
     """Drop dead entries and empty nodes: index the live slots afresh."""
     ix.head[:] = -1
@@ -123,7 +122,7 @@ def rebuild(fr: Front, ix: Index) -> bool:
     return True
 
 
-@nb.njit(cache=True, inline="always")
+@uncounted(inline="always")
 def _collect(slots: IntArray, ent: IntArray, hits: IntArray, g: int, q: int, n: int) -> int:
     """Append to ``hits[n:]`` the live slots of the list of entries from ``g`` not yet found
     by query ``q`` (stamping them); returns the new count."""
@@ -138,6 +137,7 @@ def _collect(slots: IntArray, ent: IntArray, hits: IntArray, g: int, q: int, n: 
     return n
 
 
+# Counted: tests call it from Python; inlined, it takes its caller's options.
 @nb.njit(cache=True, inline="always")
 def gather(fr: Front, ix: Index, x0: float, y0: float, x1: float, y1: float) -> int:
     """Write the live slots whose edges may meet the box to ``ix.hits``, each once; returns
@@ -160,14 +160,13 @@ def gather(fr: Front, ix: Index, x0: float, y0: float, x1: float, y1: float) -> 
     return n
 
 
-@nb.njit(cache=True)
+@uncounted()
 def _gather_fine(fr: Front, ix: Index, x0: float, y0: float, x1: float, y1: float, n: int) -> int:
     """Append to ``ix.hits[n:]`` the live slots of the trees whose nodes may reach the box."""
     slots, ent, node, hits = fr.slots, ix.ent, ix.node, ix.hits
     q = fr.st[QUERY]
     # Depth first: at most three siblings wait per level.
-    stack = np.empty(4 * MAX_DEPTH + 8, dtype=np.int64)
-    bounds = np.empty((4 * MAX_DEPTH + 8, 3))
+    stack, bounds = ix.stack, ix.bounds
     # Entries sit in nodes at most ``fine`` wide, so they reach at most LOOSE of that outside
     # their cell.
     pad = LOOSE * ix.fine

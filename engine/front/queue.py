@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import math
 
-import numba as nb
-
 from .constants import (
     ALIVE,
     FAIL,
@@ -25,10 +23,10 @@ from .constants import (
     VERT,
 )  # fmt: skip
 from .geometry import ccw
-from .state import Front, Heap
+from .state import Front, Heap, uncounted
 
 
-@nb.njit(cache=True)
+@uncounted()
 def push(fr: Front, hp: Heap, key: float, s: int, ver: int) -> bool:
     """Queue slot ``s`` at version ``ver``; False when the heap is full."""
     hkey, href, st = hp.key, hp.ref, fr.st
@@ -51,7 +49,7 @@ def push(fr: Front, hp: Heap, key: float, s: int, ver: int) -> bool:
     return True
 
 
-@nb.njit(cache=True)
+@uncounted()
 def pop(fr: Front, hp: Heap) -> tuple[float, int, int]:
     """The smallest (key, slot, version); the heap must not be empty."""
     hkey, href, st = hp.key, hp.ref, fr.st
@@ -78,7 +76,7 @@ def pop(fr: Front, hp: Heap) -> tuple[float, int, int]:
     return key, s, ver
 
 
-@nb.njit(cache=True)
+@uncounted()
 def slot_angle(fr: Front, s: int) -> float:
     """Interior angle of the front at slot ``s``'s vertex (2 pi for a spike)."""
     slots, pts = fr.slots, fr.pts
@@ -91,7 +89,7 @@ def slot_angle(fr: Front, s: int) -> float:
     return ang if ang > 0.0 else TWO_PI
 
 
-@nb.njit(cache=True)
+@uncounted()
 def slot_key(fr: Front, s: int) -> float:
     """Smallest angle first; slots flatter than ``T_FLAT`` tie, and ties go to the older front
     layer, then to the shorter edge (relative to the local size). Failed slots go last.
@@ -114,7 +112,7 @@ def slot_key(fr: Front, s: int) -> float:
     return key + 1e-7 * min(length, 10.0) + 1e6 * slots[s, FAIL]
 
 
-@nb.njit(cache=True)
+@uncounted()
 def rebuild(fr: Front, hp: Heap) -> bool:
     """Queue every live slot that has tries left, dropping stale entries."""
     slots = fr.slots

@@ -2,15 +2,12 @@
 
 from __future__ import annotations
 
-import numba as nb
-import numpy as np
-
 from . import index, queue
 from .constants import ALIVE, CURVED, FAIL, LAYER, LIVE, NEXT, NS, NT, PREV, STAMP, VER, VERT
-from .state import Front, Heap, Index
+from .state import Front, Heap, Index, uncounted
 
 
-@nb.njit(cache=True)
+@uncounted()
 def new_slot(fr: Front, vert: int) -> int:
     """A fresh live slot at vertex ``vert`` (its links are the caller's to set)."""
     slots, st = fr.slots, fr.st
@@ -25,14 +22,14 @@ def new_slot(fr: Front, vert: int) -> int:
     return s
 
 
-@nb.njit(cache=True)
+@uncounted()
 def kill(fr: Front, s: int) -> None:
     """Take slot ``s`` off the front (its index and heap entries die with its liveness)."""
     fr.slots[s, ALIVE] = 0
     fr.st[LIVE] -= 1
 
 
-@nb.njit(cache=True)
+@uncounted()
 def remove_spike(fr: Front, x: int) -> int:
     """Drop a spike ``p -> x -> p`` at slot ``x``; returns a surviving neighbour, -1 when the
     loop vanished, -2 when there is no spike at ``x``."""
@@ -52,7 +49,7 @@ def remove_spike(fr: Front, x: int) -> int:
     return p1
 
 
-@nb.njit(cache=True)
+@uncounted()
 def refresh(fr: Front, ix: Index, hp: Heap, s: int) -> bool:
     """Re-index a slot whose edge or angle changed: new version, index entry and heap entry."""
     slots = fr.slots
@@ -65,7 +62,7 @@ def refresh(fr: Front, ix: Index, hp: Heap, s: int) -> bool:
     return queue.push(fr, hp, queue.slot_key(fr, s), s, slots[s, VER])
 
 
-@nb.njit(cache=True)
+@uncounted()
 def apply(fr: Front, ix: Index, hp: Heap, e: int, k: int, w: int) -> bool:
     """Add triangle (u, v, w) on the edge of slot ``e``; ``k`` is w's slot (-1 for a new point).
 
@@ -79,7 +76,7 @@ def apply(fr: Front, ix: Index, hp: Heap, e: int, k: int, w: int) -> bool:
     st[NT] += 1
     layer = slots[e, LAYER] + 1
     curved = slots[e, CURVED]
-    touched = np.empty(8, dtype=np.int64)
+    touched = fr.touched
     nt = 0
     if k < 0:
         q = new_slot(fr, w)

@@ -2,17 +2,56 @@
 
 The arrays grow between kernel calls (see :mod:`engine.front.driver`); the tuples are rebuilt
 around them, so a kernel never holds an array that the driver replaced.
+
+The kernels of the index, the queue, the checks, the slot updates and the main loop are
+compiled without numba's reference counting (``_nrt=False``; :data:`NO_REFCOUNT` lists them):
+with it, every array taken out of a tuple was counted up and down with atomic instructions,
+and those took half of the front's time (perf: ``NRT_incref`` / ``NRT_decref``). The arrays
+belong to the driver for the whole run, so no count is needed. A kernel without counting
+cannot allocate, so its scratch arrays are in the tuples too (``touched``, ``stack``,
+``bounds``). Together: 250,000 -> 640,000 triangles per CPU-second on the uniform square,
+with the same meshes.
 """
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from collections.abc import Callable
+from typing import Any, Literal, NamedTuple, TypeVar, cast
 
+import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
+
+_F = TypeVar("_F", bound=Callable[..., Any])
+# numba's option has no type stub; passed through a dict for the type checker.
+_UNCOUNTED: dict[str, Any] = {"cache": True, "_nrt": False}
+
+
+def uncounted(inline: Literal["never", "always"] = "never") -> Callable[[_F], _F]:
+    """``numba.njit(cache=True)`` without reference counting, for the kernels of
+    :data:`NO_REFCOUNT` (see above)."""
+    return cast(Callable[[_F], _F], nb.njit(inline=inline, **_UNCOUNTED))
+
+
+#: The front's kernels compiled without reference counting, by module (see above).
+NO_REFCOUNT: dict[str, tuple[str, ...]] = {
+    "checks": ("wedge_ok", "front_clear", "candidates_near", "gap_ahead"),
+    "index": (
+        "cells",
+        "_new_node",
+        "_insert_fine",
+        "insert",
+        "rebuild",
+        "_collect",
+        "_gather_fine",
+    ),
+    "queue": ("push", "pop", "slot_angle", "slot_key", "rebuild"),
+    "slots": ("new_slot", "kill", "remove_spike", "refresh", "apply"),
+    "driver": ("_run", "_init"),
+}
 
 
 class Front(NamedTuple):
@@ -23,6 +62,7 @@ class Front(NamedTuple):
     slots: IntArray  #: (s, N_COLS) slot table (see constants)
     st: IntArray  #: (N_STATE,) scalar state (see constants)
     size: float  #: the field's size away from features (tells fine fronts apart)
+    touched: IntArray  #: scratch (8,): the slots one triangle's update touched
 
 
 class Heap(NamedTuple):
@@ -53,3 +93,5 @@ class Index(NamedTuple):
     ny: int  #: cells along y
     hits: IntArray  #: scratch: the slots a query found (one per slot at most)
     cand: IntArray  #: scratch: candidate apex slots
+    stack: IntArray  #: scratch: tree nodes a query has still to visit
+    bounds: FloatArray  #: scratch: their corners and sides (x, y, side)

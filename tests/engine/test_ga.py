@@ -238,6 +238,16 @@ def test_ga_keeps_the_mesh_valid_and_never_worsens_its_worst_triangle(
         assert node_fitness(out, "worst").min() >= node_fitness(mesh, "worst").min()
 
 
+@settings(max_examples=15, deadline=None)
+@given(mesh=meshes(), fitness=st.sampled_from(["capped", "combined", "worst", "aspect"]))
+def test_the_fitness_the_ga_returns_is_exactly_that_of_its_output(mesh: Mesh, fitness: str) -> None:
+    # The pipeline's final assessment takes it instead of computing it again.
+    params = SmoothingParams(fitness=fitness, population=30, generations=15, max_sweeps=3)
+    out = ga_smooth(mesh, params, np.random.default_rng(3), _quiet, _never)
+    assert out.fitness is not None
+    np.testing.assert_array_equal(out.fitness, node_fitness(mesh.with_points(out.points), fitness))
+
+
 def test_ga_improves_a_jittered_mesh() -> None:
     mesh = random_mesh(21, affine=False)
     out = mesh.with_points(_run(mesh, SmoothingParams()))
