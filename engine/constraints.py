@@ -37,7 +37,7 @@ from .result import Result
 from .sizing import build_size_field
 from .subdomains import improve_held, split_segment
 
-__all__ = ["Constrained", "InvalidConstraint", "mesh_with_constraints"]
+__all__ = ["Constrained", "InvalidConstraint", "check_constraints", "mesh_with_constraints"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -111,6 +111,26 @@ def _check_inside(geoms: list[shapely.Geometry], region: Region) -> None:
                 index=i,
                 location=(float(p[0]), float(p[1])),
             )
+
+
+def check_constraints(
+    constraints: Sequence[Mapping[str, Any]], region: Region
+) -> list[shapely.Geometry]:
+    """The constraints as shapely geometries, checked as :func:`mesh_with_constraints` checks
+    them before meshing (kind of geometry, no zero-length line, inside ``region``): cheap next
+    to meshing, so a service can refuse bad ones at admission. Raises
+    :class:`InvalidConstraint` naming the faulty one.
+
+    >>> from engine.boundary import make_region
+    >>> square = make_region([([[0, 0], [1, 0], [1, 1], [0, 1]], [])])
+    >>> check_constraints([{"type": "Point", "coordinates": [2, 2]}], square)
+    Traceback (most recent call last):
+    ...
+    engine.constraints.InvalidConstraint: constraint 0 leaves the region near (2, 2)
+    """
+    geoms = _geometries(constraints)
+    _check_inside(geoms, region)
+    return geoms
 
 
 def _pieces(
@@ -328,8 +348,7 @@ def mesh_with_constraints(
     (0, True)
     """
     rng = rng if rng is not None else np.random.default_rng(0)
-    geoms = _geometries(constraints)
-    _check_inside(geoms, region)
+    geoms = check_constraints(constraints, region)
     field = build_size_field(region, params.sizing)
     mesh, _ = mesh_region(region, params.sizing, params.relax, max_triangles=params.max_triangles)
     pts, _, segs = _pieces(geoms, region, [field])

@@ -369,12 +369,16 @@ def build_size_field(
         raise Cancelled("stopped while sizing")
     ga, gb, g0, g1, samples = _gap_features(region, vertex_field, should_stop)
     progress("sizing", 0.8)
-    rxy, rh = refinement_features(params.refinements)  # refinements are point features too
+    # Refinements are point features too, each growing at its own rate.
+    rxy, rh, rslope = refinement_features(params.refinements, params.growth)
     fa, fb = np.concatenate([vxy, ga, rxy]), np.concatenate([vxy, gb, rxy])
     ha = np.maximum(np.concatenate([vh, g0, rh]), size_min)
     hb = np.maximum(np.concatenate([vh, g1, rh]), size_min)
+    slopes = np.concatenate([np.full(len(vh) + len(g0), slope), rslope])
     keep = np.minimum(ha, hb) < size
-    tree = build_tree(size, slope, size_min, (x0, y0), fa[keep], fb[keep], ha[keep], hb[keep])
+    tree = build_tree(
+        size, slope, size_min, (x0, y0), fa[keep], fb[keep], ha[keep], hb[keep], slopes[keep]
+    )
     progress("sizing", 1.0)
     return SizeField(tree, samples)
 

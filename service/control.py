@@ -16,8 +16,6 @@ import shapely
 from shapely.geometry import mapping
 
 import engine
-from engine.constraints import _check_inside as check_inside
-from engine.constraints import _geometries as constraint_geometries
 from engine.refinement import InvalidRefinement
 from engine.sizing import build_size_field
 
@@ -144,7 +142,9 @@ def tagging_of(stored: dict[str, Any] | None, parts: Any) -> engine.Tagging:
 
 def refinements_of(stored: Sequence[Mapping[str, Any]]) -> tuple[engine.Refinement, ...]:
     """The engine's refinements of a job's stored ``refinements``."""
-    return tuple(engine.Refinement(r["geometry"], float(r["size"])) for r in stored)
+    return tuple(
+        engine.Refinement(r["geometry"], float(r["size"]), r.get("growth")) for r in stored
+    )
 
 
 def checked_refinements(
@@ -157,7 +157,7 @@ def checked_refinements(
     out = []
     for i, r in enumerate(refinements):
         try:
-            shape = engine.Refinement(r.geometry, r.size).shape()
+            shape = engine.Refinement(r.geometry, r.size, r.growth).shape()
         except InvalidRefinement as exc:
             raise Problem(422, str(exc), kind="invalid-input", pointer=f"{at}/{i}") from None
         vertices += int(shapely.get_num_coordinates(shape))
@@ -170,7 +170,8 @@ def checked_refinements(
                 pointer=f"{at}/{i}",
             )
         # Stored as shapely writes it back: plain GeoJSON, never the client's members.
-        out.append({"geometry": orjson.loads(orjson.dumps(mapping(shape))), "size": r.size})
+        kept = {"geometry": orjson.loads(orjson.dumps(mapping(shape))), "size": r.size}
+        out.append(kept if r.growth is None else {**kept, "growth": r.growth})
     return out
 
 
@@ -210,8 +211,7 @@ def checked_constraints(obj: Any, region: engine.Region, planar: bool, at: str) 
             pointers.append(ptr)
     try:
         # The engine's own checks, cheap next to meshing: refused now, not in the worker.
-        shapes = constraint_geometries(geoms)
-        check_inside(shapes, region)
+        shapes = engine.check_constraints(geoms, region)
     except engine.InvalidConstraint as exc:
         where = pointers[exc.index] if exc.index < len(pointers) else at
         raise Problem(422, str(exc), kind="invalid-input", pointer=where) from None

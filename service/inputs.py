@@ -169,7 +169,7 @@ MAX_REFINEMENTS = 1000
 
 
 class RefinementInput(BaseModel):
-    """A local size: ``size`` on and near ``geometry``."""
+    """A local size: ``size`` on and near ``geometry``, growing away at ``growth``."""
 
     model_config = _STRICT
 
@@ -177,6 +177,12 @@ class RefinementInput(BaseModel):
         description="a GeoJSON Point, LineString, Polygon, their Multi* forms or a collection"
     )
     size: float = Field(gt=0, description="the edge length asked for on the geometry")
+    growth: float | None = Field(
+        None,
+        gt=1,
+        le=100,
+        description="largest neighbour size ratio away from the geometry; default the job's",
+    )
 
 
 class MeshInputs(BaseModel):
@@ -220,9 +226,9 @@ class MeshInputs(BaseModel):
         max_length=MAX_REFINEMENTS,
         description=(
             "local sizes: the size near each geometry is its `size`, growing away from it at"
-            " `growth` (inside a Polygon: `size`); combined with the region's sizing by the"
-            " minimum. Coordinates as the boundary's (planar only); their vertices count"
-            " against the boundary-vertex limit"
+            " its own `growth` (default the job's; inside a Polygon: `size`); combined with the"
+            " region's sizing and each other by the minimum. Coordinates as the boundary's"
+            " (metres for lon/lat); their vertices count against the boundary-vertex limit"
         ),
     )
     constraints: Any = Field(
