@@ -277,13 +277,11 @@ def _prepare_mesh(inputs: MeshInputs, settings: Settings, where: Where) -> Prepa
     try:
         parsed = _parse(inputs, where)
     except engine.InvalidBoundary as exc:  # polygons sharing edges are subdomains
-        try:
-            has_crs = region_crs(inputs.boundary, inputs.crs, inputs.coordinates) is not None
-        except GeoError:
-            has_crs = True
-        parsed, sizes = subdomains_of(inputs.boundary, at, has_crs, exc)
-    # Refinements, constraints and named runs of a ring are given in the coordinates that are
-    # meshed: planar input, or a projected CRS (meshed in its own coordinates).
+        parsed, sizes = subdomains_of(
+            inputs.boundary, at, region_crs(inputs.boundary, inputs.crs, inputs.coordinates), exc
+        )
+    # Refinements, constraints and named runs are given in the input CRS and meshed as the
+    # region is (lon/lat: projected, sizes in metres).
     geographic = parsed.projection is not None and parsed.projection.geographic
     size = inputs.size
     if size is None:
@@ -298,12 +296,15 @@ def _prepare_mesh(inputs: MeshInputs, settings: Settings, where: Where) -> Prepa
         size = float(h)
     lengths = {"size": size, "size_min": inputs.size_min, "size_max": inputs.size_max}
     sizing = _sizing(parsed, lengths, inputs.growth, where)
+    # Lon/lat lines are straight in lon/lat (RFC 7946): split at the size to follow them.
+    densify = sizing.size if geographic else None
     refinements = checked_refinements(
         inputs.refinements,
-        not geographic,
+        parsed.projection,
         parsed.region.n_vertices,
         settings.max_vertices,
         where("refinements"),
+        densify,
     )
     sizing = replace(
         sizing,
@@ -319,19 +320,11 @@ def _prepare_mesh(inputs: MeshInputs, settings: Settings, where: Where) -> Prepa
             parsed, sizes, sizing, settings.max_triangles, where("size")
         )
     _ga_work(smoothing, triangles, settings, where)
-    tagging = stored_tagging(inputs.boundary, parsed, at)
-    if geographic and tagging["features"]:
-        raise Problem(
-            422,
-            "named runs of a ring (properties.tags) need planar or projected coordinates; "
-            "a lon/lat boundary gets the default outer / hole-K tags",
-            kind="invalid-input",
-            pointer=at,
-        )
-    if geographic:
+    if geographic and sizes is None:
         # Lon/lat edges are straight in lon/lat (RFC 7946): split them at the size so the
         # meshed boundary follows them (sizes were checked first, so this stays small).
         parsed = _parse(inputs, where, densify=sizing.size)
+    tagging = stored_tagging(inputs.boundary, parsed, at)  # renumbered as the densified rings
     # What the job keeps and the worker gets: the rings as floats in the meshing plane, the CRS
     # names that map the result back, and the resolved parameters, never the client's JSON
     # (whose foreign members may be anything).
@@ -350,10 +343,7 @@ def _prepare_mesh(inputs: MeshInputs, settings: Settings, where: Where) -> Prepa
         "tagging": tagging,
         "refinements": refinements,
         "constraints": checked_constraints(
-            inputs.constraints,
-            parsed.region,
-            not geographic and sizes is None,
-            where("constraints"),
+            inputs.constraints, parsed.region, parsed.projection, where("constraints"), densify
         ),
         "subdomains": None if sizes is None else {"sizes": sizes},
     }

@@ -153,7 +153,7 @@ def run_mesh(args: argparse.Namespace) -> int:
         raise ValueError("no --size given and the input has no 'h' property")
     if parsed.projection is not None and parsed.projection.geographic:
         parsed = parse_region(boundary, crs=crs, densify=float(size))  # follow lon/lat edges
-    payload = local_payload(boundary, parsed, control_inputs(args))
+    payload = local_payload(boundary, parsed, control_inputs(args), float(size))
     params = PipelineParams(
         sizing=SizingParams(
             float(size),

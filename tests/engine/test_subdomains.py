@@ -153,7 +153,8 @@ def test_constraints_inside_and_across_subdomains_are_kept() -> None:
     assert np.hypot(*(mesh.points - [1.0, 0.3 + 0.6 * 0.7 / 1.3]).T).min() < 1e-9
     assert set(sub.constraints.edge_constraint.tolist()) == {0, 1}
     tags = tag_mesh(mesh, sub.region, lines=sub.constraints.lines(["fault"]))
-    assert "fault" in tags.tags and "constraint-1" in tags.tags
+    assert "fault" in tags.tags
+    assert "constraint-1" in tags.tags
 
 
 def test_a_constraint_leaving_the_subdomains_is_a_located_error() -> None:
@@ -173,12 +174,15 @@ def test_subdomain_meshing_reports_monotone_progress_and_can_be_cancelled() -> N
         [LEFT, RIGHT], _params("laplacian"), [0.2, 0.1], progress=lambda s, f: seen.append((s, f))
     )
     stages = [s for s, _ in seen]
-    assert stages[0] == "boundary" and {"mesh", "swap", "smooth"} <= set(stages)
+    assert stages[0] == "boundary"
+    assert {"mesh", "swap", "smooth"} <= set(stages)
     order = ["boundary", "mesh", "swap", "smooth"]
     ranks = [order.index(s) for s in stages if s in order]
     assert ranks == sorted(ranks)
     meshed = [f for s, f in seen if s == "mesh"]
-    assert meshed == sorted(meshed) and meshed[-1] == 1.0 and len(meshed) >= 3
+    assert meshed == sorted(meshed)
+    assert meshed[-1] == 1.0
+    assert len(meshed) >= 3
     calls = 0
 
     def stop() -> bool:
