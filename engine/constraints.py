@@ -21,20 +21,21 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from typing import Any
 
 import numpy as np
 import shapely
 import shapely.geometry
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from .boundary import Region
 from .errors import Cancelled, EngineError, MeshingError
 from .mesh import Mesh, edge_table
 from .params import PipelineParams
 from .pipeline import assess_mesh, mesh_region
+from .resample import Resampled, resample_constraints
 from .result import ProgressFn, Result, StopFn
 from .sizing import SizeField, build_size_field
 from .smoothing import smooth_points
@@ -109,6 +110,7 @@ class Constrained:
     edge_constraint: IntArray  #: (k,) the input index of each edge's constraint
     nodes: IntArray  #: mesh nodes of every constraint (points, line vertices and splits)
     region: Region | None = None  #: the region meshed (resampled, with ``sizing.resample``)
+    boundary: Resampled | None = None  #: the resampling, with ``sizing.resample``
 
     def lines(self, names: Sequence[str | None] = ()) -> dict[str, IntArray]:
         """The constraint edges by name (``names[i]``, else ``constraint-i``), for
@@ -454,10 +456,14 @@ def mesh_with_constraints(
     rng: np.random.Generator | None = None,
     progress: ProgressFn | None = None,
     should_stop: StopFn | None = None,
+    keep: ArrayLike = (),
 ) -> Constrained:
     """Mesh ``region`` with ``constraints`` (GeoJSON (Multi)Point and (Multi)LineString
     geometries) as mesh nodes and chains of mesh edges; swap and smooth holding them.
     Reports ``progress`` and polls ``should_stop`` as :func:`engine.mesh_then_smooth` does.
+    With ``sizing.resample`` the rings and the constraint lines are resampled together
+    (:func:`engine.resample.resample_constraints`; ``keep``: more ring vertices to keep, such
+    as the ends of named runs) and the summary's ``boundary`` reports both deviations.
 
     >>> from engine.boundary import make_region
     >>> from engine.params import SizingParams, SmoothingParams
@@ -472,20 +478,27 @@ def mesh_with_constraints(
     geoms = check_constraints(constraints, region)
     if progress is not None:
         progress("boundary", 0.0)
-    field = build_size_field(region, params.sizing)
-    mesh, _ = mesh_region(
-        region, params.sizing, params.relax, should_stop, params.max_triangles, progress
-    )
+    boundary, sizing = None, params.sizing
+    if sizing.resample:
+        boundary, geoms, deviation = resample_constraints(region, sizing, geoms, keep)
+        region, sizing = boundary.region, replace(sizing, resample=False)
+        _check_inside(geoms, region)
+    field = build_size_field(region, sizing)
+    mesh, _ = mesh_region(region, sizing, params.relax, should_stop, params.max_triangles, progress)
     got = insert_constraints(mesh, region, geoms, [field], should_stop=should_stop)
     if progress is not None:
         progress("mesh", 1.0)
     result = improve_held(got.mesh, got.edges, got.pinned, params, rng, progress, should_stop)
+    if boundary is not None:
+        summary = {**boundary.summary(), "constraints_max_deviation": deviation}
+        result.smoothed.summary["boundary"] = summary
     return Constrained(
         result=result,
         edges=got.edges,
         edge_constraint=got.edge_constraint,
         nodes=np.flatnonzero(got.pinned).astype(np.int64),
         region=region,
+        boundary=boundary,
     )
 
 

@@ -305,8 +305,14 @@ def run_mesh(
     """A ``mesh`` job's engine run, with its constraints when it has some, and its tags."""
     constraints = payload.get("constraints") or {}
     geoms, names = constraints.get("geometries") or [], constraints.get("names") or []
+    # The stored parts are in the meshing plane, and the named runs in its numbering.
+    tagging = tagging_of(payload.get("tagging"), payload["parts"])
+    # With resample, the ends of named runs stay ring vertices and the runs are mapped onto
+    # the resampled rings.
+    ends = np.asarray([np.asarray(r.path)[k] for r in tagging.runs for k in (0, -1)])
     lines: dict[str, Any] = {}
     pinned = np.empty(0, dtype=np.int64)
+    boundary: engine.Resampled | None = None
     if payload.get("subdomains"):
         sizes = payload["subdomains"]["sizes"]
         sub = engine.mesh_subdomains(
@@ -316,15 +322,26 @@ def run_mesh(
         if sub.constraints is not None:
             lines, pinned = sub.constraints.lines(names), sub.constraints.nodes
     elif geoms:
-        out = engine.mesh_with_constraints(region, params, geoms, rng, progress, should_stop)
+        out = engine.mesh_with_constraints(
+            region, params, geoms, rng, progress, should_stop, keep=ends.reshape(-1, 2)
+        )
         lines, pinned = out.lines(names), out.nodes
-        result = out.result
+        result, boundary = out.result, out.boundary
+    elif params.sizing.resample and tagging.runs:
+        boundary = engine.resample_region(region, params.sizing, keep=ends)
+        sizing = replace(params.sizing, resample=False)
+        result = engine.mesh_then_smooth(
+            boundary.region, replace(params, sizing=sizing), rng, progress, should_stop
+        )
+        result.smoothed.summary["boundary"] = boundary.summary()
     else:
         result = engine.mesh_then_smooth(
             region, params, rng, progress=progress, should_stop=should_stop
         )
-    # The stored parts are in the meshing plane, and the named runs in its numbering.
-    tagging = tagging_of(payload.get("tagging"), payload["parts"])
+    if boundary is not None:
+        region = boundary.region
+        runs = [engine.TagRun(r.name, boundary.map_path(r.path)) for r in tagging.runs]
+        tagging = engine.Tagging(tagging.names, runs)
     return result, engine.tag_mesh(result.smoothed.mesh, region, tagging, lines, pinned)
 
 

@@ -446,3 +446,47 @@ async def test_lon_lat_subdomains_with_a_constraint(client: httpx.AsyncClient) -
     edges = np.asarray(doc["lines"])[np.asarray(doc["line_data"]["tag"]) == tag]
     assert np.all(pts[edges][..., 0] >= 14.05 - 1e-9)
     assert np.min(np.hypot(*(pts - [14.1, 60.05]).T)) < 1e-6
+
+
+def _digitised_duct() -> tuple[dict[str, Any], np.ndarray]:
+    """A 100 x 60 rectangle traced every 0.3 with 0.05 of noise; a run names its western side
+    from its corner (0, 60) down to a vertex half way."""
+    rng = np.random.default_rng(11)
+    corners = np.array([[0, 0], [100, 0], [100, 60], [0, 60]], dtype=float)
+    sides = []
+    for a, b in zip(corners, np.roll(corners, -1, axis=0), strict=True):
+        n = int(np.hypot(*(b - a)) / 0.3)
+        side = a + (np.arange(n) / n)[:, None] * (b - a)
+        side[1:] += rng.uniform(-0.05, 0.05, (n - 1, 2))
+        sides.append(side)
+    ring = np.concatenate(sides)
+    west = len(ring) - len(sides[-1])  # the vertex at (0, 60)
+    half = west + len(sides[-1]) // 2
+    feature = {
+        "type": "Feature",
+        "properties": {"name": "duct", "tags": [{"name": "inlet", "from": west, "to": half}]},
+        "geometry": {"type": "Polygon", "coordinates": [[*ring.tolist(), ring[0].tolist()]]},
+    }
+    return feature, ring[west : half + 1]
+
+
+@pytest.mark.parametrize("constrained", [False, True])
+async def test_named_runs_keep_working_with_resample(
+    client: httpx.AsyncClient, constrained: bool
+) -> None:
+    feature, run = _digitised_duct()
+    inputs: dict[str, Any] = {"boundary": feature, "size": 10, "resample": True, "smoothing": NONE}
+    if constrained:  # the constraints path resamples the rings itself
+        line = {"type": "LineString", "coordinates": [[20.0, 20.0], [50.0, 40.0]]}
+        inputs["constraints"] = line
+    doc = await _result(client, inputs)
+    assert len(doc["triangles"]) < 300  # resampled: not the ~1,000 digitised vertices kept
+    pts = np.asarray(doc["points"])
+    inlet = np.asarray(doc["lines"])[np.asarray(doc["line_data"]["tag"]) == doc["tags"]["inlet"]]
+    ends = pts[inlet]
+    # The run's end vertices stay, and its edges cover it (within the resampling tolerance).
+    assert np.hypot(*(pts - run[0]).T).min() < 1e-9
+    assert np.hypot(*(pts - run[-1]).T).min() < 1e-9
+    assert abs(np.hypot(*(ends[:, 1] - ends[:, 0]).T).sum() - (run[0, 1] - run[-1, 1])) < 0.1
+    assert np.all(np.abs(ends[..., 0]) <= 1.0)  # on the western side only
+    assert doc["summary"]["smoothed"]["boundary"]["max_deviation"] <= 1.0
