@@ -19,6 +19,7 @@ it, are an :class:`InvalidConstraint` naming the constraint's index and a locati
 from __future__ import annotations
 
 import itertools
+import json
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -50,6 +51,7 @@ __all__ = [
     "improve_held",
     "insert_constraints",
     "mesh_with_constraints",
+    "plain_geometries",
     "split_segment",
 ]
 
@@ -178,6 +180,13 @@ def check_constraints(
     geoms = _geometries(constraints)
     _check_inside(geoms, region)
     return geoms
+
+
+def plain_geometries(geoms: Sequence[shapely.Geometry]) -> list[dict[str, Any]]:
+    """The constraints as plain GeoJSON (lists, no tuples), as results keep them."""
+    plain = [shapely.geometry.mapping(g) for g in geoms]
+    listed: list[dict[str, Any]] = json.loads(json.dumps(plain))
+    return listed
 
 
 def _linework(region: Region) -> shapely.Geometry:
@@ -489,6 +498,7 @@ def mesh_with_constraints(
     if progress is not None:
         progress("mesh", 1.0)
     result = improve_held(got.mesh, got.edges, got.pinned, params, rng, progress, should_stop)
+    result.parameters["constraints"] = plain_geometries(geoms)
     if boundary is not None:
         summary = {**boundary.summary(), "constraints_max_deviation": deviation}
         result.smoothed.summary["boundary"] = summary

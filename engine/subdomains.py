@@ -34,6 +34,7 @@ from .constraints import (
     check_constraints,
     improve_held,
     insert_constraints,
+    plain_geometries,
     split_segment,
 )
 from .errors import Cancelled, InvalidBoundary, MeshingError
@@ -259,6 +260,8 @@ def mesh_subdomains(
     interfaces, _ = interface_edges(mesh.triangles, region)
     locked = interfaces if got is None else np.concatenate([interfaces, got.edges])
     result = improve_held(mesh, locked, held, params, rng, progress, should_stop)
+    if geoms:
+        result.parameters["constraints"] = plain_geometries(geoms)
     return Subdomains(
         result=result,
         region=Region(tuple(split)),
