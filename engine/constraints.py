@@ -207,12 +207,26 @@ def _pieces(
     rings = _linework(region)
     x0, y0, x1, y1 = region.bounds
     tol = 1e-9 * max(x1 - x0, y1 - y0)
+    ring_xy = shapely.get_coordinates(rings)
+    ring_tree = shapely.STRtree(shapely.points(ring_xy))
+
+    def snap(xy: FloatArray) -> FloatArray:
+        """``xy`` with points within ``tol`` of a ring vertex put on it: noding computes a
+        crossing a rounding error away from a vertex that lies on the line."""
+        got = ring_tree.query_nearest(shapely.points(xy), max_distance=tol, all_matches=False)
+        out = xy.copy()
+        out[got[0]] = ring_xy[got[1]]
+        return out
+
     if lines:
         inputs = [g for _, g in lines]
         together = shapely.union_all(inputs)
         noded = shapely.node(shapely.union_all([together, rings]))
         for piece in getattr(noded, "geoms", [noded]):
-            xy = shapely.get_coordinates(piece)
+            xy = snap(shapely.get_coordinates(piece))
+            xy = xy[np.r_[True, np.any(xy[1:] != xy[:-1], axis=1)]]
+            if len(xy) < 2:  # a rounding error's piece, gone once snapped
+                continue
             mid = shapely.Point((xy[0] + xy[1]) / 2)
             near = [g.distance(mid) for g in inputs]
             if min(near) > tol:  # a piece of ring only
@@ -225,7 +239,7 @@ def _pieces(
                 owner += [i] * len(chain)
     for i, g in enumerate(geoms):
         if g.geom_type.endswith("Point"):
-            xy = shapely.get_coordinates(g)
+            xy = snap(shapely.get_coordinates(g))
             coords.append(xy)
             owner += [i] * len(xy)
     pts, inverse = np.unique(np.concatenate(coords), axis=0, return_inverse=True)

@@ -245,3 +245,14 @@ def test_random_subdomains_with_constraints_and_refinements_conform_and_keep_the
         raise
     _check(sub, [shapely.Polygon(p[0]) for p in parts])
     _constraints_kept(sub, cs)
+
+
+def test_a_line_crossing_an_interface_at_one_of_its_nodes_meets_it_there() -> None:
+    """The interface x = 1 is split at 0.1 steps; the line crosses it at (1, 0.5), which
+    rounding puts a hair away from the split node: the two are one node, not a near miss."""
+    left = ([[0, 0], [1, 0], [1, 1], [0, 1]], [])
+    right = ([[1, 0], [2, 0], [2, 1], [1, 1]], [])
+    cs = [{"type": "LineString", "coordinates": [[0.3, 0.2], [1.7, 0.8]]}]
+    sub = mesh_subdomains([left, right], _params(), [None, 0.1], constraints=cs)
+    _check(sub, [shapely.Polygon(left[0]), shapely.Polygon(right[0])])
+    _constraints_kept(sub, cs)
