@@ -236,7 +236,8 @@ class MeshInputs(BaseModel):
         description=(
             "a GeoJSON geometry or FeatureCollection of (Multi)LineStrings and (Multi)Points"
             " inside the region: lines become chains of mesh edges tagged with their Feature's"
-            " `name`, points become mesh nodes; neither moves nor is swapped away (planar only)"
+            " `name`, points become mesh nodes; neither moves nor is swapped away. In the"
+            " boundary's coordinates (lon/lat for geographic input); with subdomains too"
         ),
     )
     resample: bool = Field(

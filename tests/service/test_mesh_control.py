@@ -490,3 +490,14 @@ async def test_named_runs_keep_working_with_resample(
     assert abs(np.hypot(*(ends[:, 1] - ends[:, 0]).T).sum() - (run[0, 1] - run[-1, 1])) < 0.1
     assert np.all(np.abs(ends[..., 0]) <= 1.0)  # on the western side only
     assert doc["summary"]["smoothed"]["boundary"]["max_deviation"] <= 1.0
+
+
+async def test_the_process_description_offers_a_refinement_growth(
+    client: httpx.AsyncClient,
+) -> None:
+    import json
+
+    described = (await client.get("/processes/mesh")).json()
+    text = json.dumps(described["inputs"]["refinements"])
+    assert "growth" in text
+    assert "away from the geometry; default the job's" in text
