@@ -21,7 +21,8 @@ from engine.refinement import InvalidRefinement
 from engine.sizing import build_size_field
 
 from .boundary_tags import region_name, tag_runs
-from .geo import Projection, project_geometry, project_rings, snap_vertices
+from .geo import Projection, project_rings
+from .geo.shapes import project_geometry, snap_vertices
 from .geojson import ParsedRegion, build_region, parse_region
 from .inputs import RefinementInput
 from .problems import Problem

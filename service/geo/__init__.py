@@ -10,7 +10,6 @@ from .antimeridian import crosses_antimeridian, normalize_longitudes, unwrap_par
 from .crs import ALIASES, Projection, crs_name, legacy_crs, local_crs, project_rings, resolve_crs
 from .errors import GeoError, InvalidCoordinates, MissingDependency, RegionTooLarge, UnknownCRS
 from .files import RegionFile, RegionFileError, read_region_file
-from .shapes import project_geometry, snap_vertices
 
 __all__ = [
     "ALIASES",
@@ -27,10 +26,8 @@ __all__ = [
     "legacy_crs",
     "local_crs",
     "normalize_longitudes",
-    "project_geometry",
     "project_rings",
     "read_region_file",
     "resolve_crs",
-    "snap_vertices",
     "unwrap_parts",
 ]
