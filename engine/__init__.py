@@ -15,7 +15,7 @@ Arrays in, frozen dataclasses out; no web, storage or logging configuration here
 from __future__ import annotations
 
 from .boundary import PolygonPart, Region, make_region
-from .constraints import Constrained, InvalidConstraint, mesh_with_constraints
+from .constraints import Constrained, InvalidConstraint, check_constraints, mesh_with_constraints
 from .errors import (
     Cancelled,
     EngineError,
@@ -70,6 +70,7 @@ __all__ = [
     "Tagging",
     "TriangleQuality",
     "assess_mesh",
+    "check_constraints",
     "estimate_triangles",
     "make_region",
     "mesh_region",

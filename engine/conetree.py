@@ -2,11 +2,12 @@
 
 Every feature is a segment ``a -> b`` whose size grows linearly from ``ha`` at ``a`` to ``hb`` at
 ``b`` (a point feature has ``a == b``). The field is the lower envelope of the cones
-``h(q) + slope * |x - q|`` over every point ``q`` of every feature, clamped to ``size``. A query
+``h(q) + slope_f * |x - q|`` over every point ``q`` of every feature ``f`` (each feature grows
+at its own rate ``slope_f``, by default the field's ``slope``), clamped to ``size``. A query
 walks the tree nearest box first and skips a box whose lower bound (its smallest size plus
-``slope`` times the distance to it) cannot beat the best value found by more than the relative
-tolerance ``TOLERANCE``, so a dense line of equal features (a long thin gap) costs a few boxes, not
-one evaluation per feature.
+its smallest slope times the distance to it) cannot beat the best value found by more than the
+relative tolerance ``TOLERANCE``, so a dense line of equal features (a long thin gap) costs a few
+boxes, not one evaluation per feature.
 """
 
 from __future__ import annotations
@@ -49,33 +50,36 @@ class ConeTree(NamedTuple):
     hmin: FloatArray  #: (m,) smallest size asked inside each node
     child: IntArray  #: (m, 2) children of each node, -1 for a leaf
     span: IntArray  #: (m, 2) range of features of each node
+    fslope: FloatArray  #: (f,) growth - 1 of each feature
+    smin: FloatArray  #: (m,) smallest slope of the features inside each node
 
 
 @nb.njit(cache=True, inline="always")
 def _cone(x: float, y: float, t: ConeTree, f: int) -> float:  # pragma: no cover - compiled
-    """Smallest ``h(q) + slope |x - q|`` over the points ``q`` of feature ``f`` (closed form:
+    """Smallest ``h(q) + slope_f |x - q|`` over the points ``q`` of feature ``f`` (closed form:
     the function is convex along the segment)."""
     ax, ay = t.fa[f, 0], t.fa[f, 1]
     dx, dy = t.fb[f, 0] - ax, t.fb[f, 1] - ay
     length = math.sqrt(dx * dx + dy * dy)
     h0 = t.ha[f]
+    slope = t.fslope[f]
     if length == 0.0:
-        return h0 + t.slope * math.sqrt((x - ax) ** 2 + (y - ay) ** 2)
+        return h0 + slope * math.sqrt((x - ax) ** 2 + (y - ay) ** 2)
     u = ((x - ax) * dx + (y - ay) * dy) / length
     v = abs((y - ay) * dx - (x - ax) * dy) / length
     k = (t.hb[f] - h0) / length
-    if abs(k) < t.slope:
-        s = min(max(u - k * v / math.sqrt(t.slope * t.slope - k * k), 0.0), length)
+    if abs(k) < slope:
+        s = min(max(u - k * v / math.sqrt(slope * slope - k * k), 0.0), length)
     else:
         s = 0.0 if k > 0.0 else length
-    return h0 + k * s + t.slope * math.sqrt((s - u) ** 2 + v * v)
+    return h0 + k * s + slope * math.sqrt((s - u) ** 2 + v * v)
 
 
 @nb.njit(cache=True, inline="always")
 def _bound(x: float, y: float, t: ConeTree, node: int) -> float:  # pragma: no cover - compiled
     dx = max(t.box[node, 0] - x, 0.0, x - t.box[node, 2])
     dy = max(t.box[node, 1] - y, 0.0, y - t.box[node, 3])
-    return t.hmin[node] + t.slope * math.sqrt(dx * dx + dy * dy)
+    return t.hmin[node] + t.smin[node] * math.sqrt(dx * dx + dy * dy)
 
 
 @nb.njit(cache=True)
@@ -113,8 +117,8 @@ def cone_min(t: ConeTree, x: float, y: float) -> tuple[float, int]:  # pragma: n
 
 @nb.njit(cache=True)
 def _build(
-    fa: FloatArray, fb: FloatArray, ha: FloatArray, hb: FloatArray
-) -> tuple[IntArray, FloatArray, FloatArray, IntArray, IntArray, int]:  # pragma: no cover
+    fa: FloatArray, fb: FloatArray, ha: FloatArray, hb: FloatArray, sl: FloatArray
+) -> tuple[IntArray, FloatArray, FloatArray, IntArray, IntArray, FloatArray]:  # pragma: no cover
     """Median-split tree over feature midpoints; returns the feature order and the nodes."""
     n = fa.shape[0]
     order = np.arange(n)
@@ -122,6 +126,7 @@ def _build(
     cap = 2 * (n // (LEAF // 2) + 1) + 1
     box = np.empty((cap, 4))
     hmin = np.empty(cap)
+    smin = np.empty(cap)
     child = np.full((cap, 2), -1, dtype=np.int64)
     span = np.empty((cap, 2), dtype=np.int64)
     todo = np.empty((cap, 3), dtype=np.int64)  # node, lo, hi
@@ -133,7 +138,7 @@ def _build(
         span[node] = (lo, hi)
         x0 = y0 = np.inf
         x1 = y1 = -np.inf
-        h = np.inf
+        h = sm = np.inf
         for i in range(lo, hi):
             f = order[i]
             x0 = min(x0, fa[f, 0], fb[f, 0])
@@ -141,8 +146,10 @@ def _build(
             x1 = max(x1, fa[f, 0], fb[f, 0])
             y1 = max(y1, fa[f, 1], fb[f, 1])
             h = min(h, ha[f], hb[f])
+            sm = min(sm, sl[f])
         box[node] = (x0, y0, x1, y1)
         hmin[node] = h
+        smin[node] = sm
         if hi - lo <= LEAF:
             continue
         axis = 0 if x1 - x0 >= y1 - y0 else 1
@@ -154,7 +161,7 @@ def _build(
         todo[ntodo + 1] = (nodes + 1, m, hi)
         ntodo += 2
         nodes += 2
-    return order, box[:nodes], hmin[:nodes], child[:nodes], span[:nodes], nodes
+    return order, box[:nodes], hmin[:nodes], child[:nodes], span[:nodes], smin[:nodes]
 
 
 def build_tree(
@@ -166,8 +173,10 @@ def build_tree(
     fb: FloatArray,
     ha: FloatArray,
     hb: FloatArray,
+    slopes: FloatArray | None = None,
 ) -> ConeTree:
-    """The tree over features ``fa -> fb`` asking ``ha -> hb``.
+    """The tree over features ``fa -> fb`` asking ``ha -> hb``, each growing away at its
+    ``slopes`` entry (default ``slope``).
 
     >>> t = build_tree(1.0, 0.2, 0.0, (0.0, 0.0), np.zeros((1, 2)), np.array([[1.0, 0.0]]),
     ...                np.array([0.1]), np.array([0.1]))
@@ -179,14 +188,15 @@ def build_tree(
         return ConeTree(
             size, slope, size_min, empty, empty, *origin, np.empty(0), np.empty(0),
             np.empty((0, 4)), np.empty(0), np.empty((0, 2), dtype=np.int64),
-            np.empty((0, 2), dtype=np.int64),
+            np.empty((0, 2), dtype=np.int64), np.empty(0), np.empty(0),
         )  # fmt: skip
     fa, fb = np.ascontiguousarray(fa, np.float64), np.ascontiguousarray(fb, np.float64)
     ha, hb = np.ascontiguousarray(ha, np.float64), np.ascontiguousarray(hb, np.float64)
-    order, box, hmin, child, span, _ = _build(fa, fb, ha, hb)
+    sl = np.full(len(ha), slope) if slopes is None else np.ascontiguousarray(slopes, np.float64)
+    order, box, hmin, child, span, smin = _build(fa, fb, ha, hb, sl)
     return ConeTree(
         size, slope, size_min, fa[order], fb[order], *origin, ha[order], hb[order], box, hmin,
-        child, span,
+        child, span, sl[order], smin,
     )  # fmt: skip
 
 
@@ -194,7 +204,7 @@ def build_boxes(a: FloatArray, b: FloatArray) -> tuple[IntArray, FloatArray, Int
     """The same median-split tree over plain segments ``a -> b``: the segment in each slot,
     and the nodes' boxes, children and slot ranges (the gap search walks it)."""
     zero = np.zeros(len(a))
-    order, box, _, child, span, _ = _build(a, b, zero, zero)
+    order, box, _, child, span, _ = _build(a, b, zero, zero, zero)
     return order, box, child, span
 
 

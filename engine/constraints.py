@@ -19,28 +19,45 @@ it, are an :class:`InvalidConstraint` naming the constraint's index and a locati
 from __future__ import annotations
 
 import itertools
+import json
+import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
+from functools import cached_property
 from typing import Any
 
 import numpy as np
 import shapely
 import shapely.geometry
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from .boundary import Region
-from .errors import EngineError, MeshingError
+from .errors import Cancelled, EngineError, MeshingError
 from .mesh import Mesh, edge_table
 from .params import PipelineParams
-from .pipeline import mesh_region
-from .result import Result
-from .sizing import build_size_field
-from .subdomains import improve_held, split_segment
+from .pipeline import assess_mesh, mesh_region
+from .resample import Resampled, resample_constraints
+from .result import ProgressFn, Result, StopFn
+from .sizing import SizeField, build_size_field
+from .smoothing import smooth_points
+from .swap import swap_diagonals
 
-__all__ = ["Constrained", "InvalidConstraint", "mesh_with_constraints"]
+__all__ = [
+    "Constrained",
+    "Inserted",
+    "InvalidConstraint",
+    "PinnedMesh",
+    "check_constraints",
+    "improve_held",
+    "insert_constraints",
+    "mesh_with_constraints",
+    "plain_geometries",
+    "split_segment",
+]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
+BoolArray = NDArray[np.bool_]
 
 #: Pieces closer than this fraction of the local size without meeting are refused.
 _NEAR = 0.05
@@ -58,6 +75,35 @@ class InvalidConstraint(EngineError, ValueError):
 
 
 @dataclass(frozen=True)
+class PinnedMesh(Mesh):
+    """A mesh whose ``pinned`` nodes count as boundary nodes, so that no smoother moves them."""
+
+    pinned: BoolArray = field(default_factory=lambda: np.zeros(0, dtype=bool), repr=False)
+
+    @cached_property
+    def boundary_nodes(self) -> BoolArray:
+        mask: BoolArray = Mesh.boundary_nodes.func(self)  # type: ignore[attr-defined]
+        return mask | self.pinned if len(self.pinned) else mask
+
+
+def split_segment(a: FloatArray, b: FloatArray, fields: Sequence[SizeField]) -> FloatArray:
+    """Points splitting ``a -> b`` into ``ceil(integral of ds / h)`` equal pieces of that
+    integral, ``h`` the smaller of ``fields``."""
+    length = float(np.hypot(*(b - a)))
+    m = 64
+    for _ in range(2):  # sample, then resample at a quarter of the smallest size found
+        t = np.linspace(0.0, 1.0, m)
+        xy = a + t[:, None] * (b - a)
+        h = np.min([f(xy) for f in fields], axis=0)
+        m = int(min(max(64, math.ceil(4 * length / h.min())), 4_000_000))
+    inv = 1.0 / h
+    cum = np.concatenate([[0.0], np.cumsum(0.5 * (inv[1:] + inv[:-1]) * np.diff(t) * length)])
+    n = max(math.ceil(cum[-1] - 1e-9), 1)
+    ts = np.interp(cum[-1] * np.arange(1, n) / n, cum, t)
+    return a + ts[:, None] * (b - a)
+
+
+@dataclass(frozen=True)
 class Constrained:
     """What :func:`mesh_with_constraints` returns."""
 
@@ -65,6 +111,8 @@ class Constrained:
     edges: IntArray  #: (k, 2) mesh edges along constraint lines
     edge_constraint: IntArray  #: (k,) the input index of each edge's constraint
     nodes: IntArray  #: mesh nodes of every constraint (points, line vertices and splits)
+    region: Region | None = None  #: the region meshed (resampled, with ``sizing.resample``)
+    boundary: Resampled | None = None  #: the resampling, with ``sizing.resample``
 
     def lines(self, names: Sequence[str | None] = ()) -> dict[str, IntArray]:
         """The constraint edges by name (``names[i]``, else ``constraint-i``), for
@@ -101,7 +149,7 @@ def _geometries(constraints: Sequence[Mapping[str, Any]]) -> list[shapely.Geomet
 
 
 def _check_inside(geoms: list[shapely.Geometry], region: Region) -> None:
-    shape = region.to_shapely()
+    shape = shapely.union_all([p.to_shapely() for p in region.parts])  # subdomains touch
     for i, g in enumerate(geoms):
         if not shape.covers(g):
             outside = g.difference(shape)
@@ -113,22 +161,77 @@ def _check_inside(geoms: list[shapely.Geometry], region: Region) -> None:
             )
 
 
+def check_constraints(
+    constraints: Sequence[Mapping[str, Any]], region: Region
+) -> list[shapely.Geometry]:
+    """The constraints as shapely geometries, checked as :func:`mesh_with_constraints` (and
+    :func:`engine.mesh_subdomains`, ``region`` then the subdomains' parts) checks them before
+    meshing (kind of geometry, no zero-length line, inside ``region``): cheap next
+    to meshing, so a service can refuse bad ones at admission. Raises
+    :class:`InvalidConstraint` naming the faulty one.
+
+    >>> from engine.boundary import make_region
+    >>> square = make_region([([[0, 0], [1, 0], [1, 1], [0, 1]], [])])
+    >>> check_constraints([{"type": "Point", "coordinates": [2, 2]}], square)
+    Traceback (most recent call last):
+    ...
+    engine.constraints.InvalidConstraint: constraint 0 leaves the region near (2, 2)
+    """
+    geoms = _geometries(constraints)
+    _check_inside(geoms, region)
+    return geoms
+
+
+def plain_geometries(geoms: Sequence[shapely.Geometry]) -> list[dict[str, Any]]:
+    """The constraints as plain GeoJSON (lists, no tuples), as results keep them."""
+    plain = [shapely.geometry.mapping(g) for g in geoms]
+    listed: list[dict[str, Any]] = json.loads(json.dumps(plain))
+    return listed
+
+
+def _linework(region: Region) -> shapely.Geometry:
+    """Every ring of ``region``'s parts (subdomains: their interfaces too), as lines."""
+    return shapely.union_all([p.to_shapely().boundary for p in region.parts])
+
+
 def _pieces(
-    geoms: list[shapely.Geometry], region: Region, fields: Any
+    geoms: list[shapely.Geometry], region: Region, fields: Sequence[SizeField]
 ) -> tuple[FloatArray, IntArray, list[tuple[int, int, int]]]:
     """Constraint points (unique), the constraint of each, and the pieces (i, j, constraint) of
-    lines between consecutive points: crossings noded, each piece split at the local size."""
+    lines between consecutive points: crossings with each other and with the rings of the
+    region's parts (subdomain interfaces) noded, each piece split at the local size."""
     lines = [(i, g) for i, g in enumerate(geoms) if g.geom_type.endswith("LineString")]
     coords: list[FloatArray] = [np.empty((0, 2))]
     owner: list[int] = []
     chains: list[tuple[FloatArray, int]] = []
+    rings = _linework(region)
+    x0, y0, x1, y1 = region.bounds
+    tol = 1e-9 * max(x1 - x0, y1 - y0)
+    ring_xy = shapely.get_coordinates(rings)
+    ring_tree = shapely.STRtree(shapely.points(ring_xy))
+
+    def snap(xy: FloatArray) -> FloatArray:
+        """``xy`` with points within ``tol`` of a ring vertex put on it: noding computes a
+        crossing a rounding error away from a vertex that lies on the line."""
+        got = ring_tree.query_nearest(shapely.points(xy), max_distance=tol, all_matches=False)
+        out = xy.copy()
+        out[got[0]] = ring_xy[got[1]]
+        return out
+
     if lines:
-        noded = shapely.node(shapely.union_all([g for _, g in lines]))
         inputs = [g for _, g in lines]
+        together = shapely.union_all(inputs)
+        noded = shapely.node(shapely.union_all([together, rings]))
         for piece in getattr(noded, "geoms", [noded]):
-            xy = shapely.get_coordinates(piece)
+            xy = snap(shapely.get_coordinates(piece))
+            xy = xy[np.r_[True, np.any(xy[1:] != xy[:-1], axis=1)]]
+            if len(xy) < 2:  # a rounding error's piece, gone once snapped
+                continue
             mid = shapely.Point((xy[0] + xy[1]) / 2)
-            i = lines[int(np.argmin([g.distance(mid) for g in inputs]))][0]
+            near = [g.distance(mid) for g in inputs]
+            if min(near) > tol:  # a piece of ring only
+                continue
+            i = lines[int(np.argmin(near))][0]
             for a, b in itertools.pairwise(xy):
                 chain = np.concatenate([a[None], split_segment(a, b, fields), b[None]])
                 chains.append((chain, i))
@@ -136,7 +239,7 @@ def _pieces(
                 owner += [i] * len(chain)
     for i, g in enumerate(geoms):
         if g.geom_type.endswith("Point"):
-            xy = shapely.get_coordinates(g)
+            xy = snap(shapely.get_coordinates(g))
             coords.append(xy)
             owner += [i] * len(xy)
     pts, inverse = np.unique(np.concatenate(coords), axis=0, return_inverse=True)
@@ -144,7 +247,7 @@ def _pieces(
     which = np.full(len(pts), -1, dtype=np.int64)
     which[inverse] = owner
     # The smallest size along the constraints: split points are at least this far apart.
-    _check_spacing(pts, which, region, float(np.min([f(pts) for f in fields])))
+    _check_spacing(pts, which, rings, float(np.min([f(pts) for f in fields])))
     segs: list[tuple[int, int, int]] = []
     at = 0
     for chain, i in chains:
@@ -154,8 +257,8 @@ def _pieces(
     return pts, which, segs
 
 
-def _check_spacing(pts: FloatArray, which: IntArray, region: Region, h: float) -> None:
-    """Distinct constraint points (and points and the boundary) must not nearly meet."""
+def _check_spacing(pts: FloatArray, which: IntArray, rings: shapely.Geometry, h: float) -> None:
+    """Distinct constraint points (and points and the rings) must not nearly meet."""
     near = _NEAR * h
     tree = shapely.STRtree(shapely.points(pts))
     a, b = tree.query(shapely.points(pts), "dwithin", near)
@@ -167,8 +270,7 @@ def _check_spacing(pts: FloatArray, which: IntArray, region: Region, h: float) -
             index=int(which[k]),
             location=(float(pts[k, 0]), float(pts[k, 1])),
         )
-    edge = region.to_shapely().boundary
-    d = shapely.distance(edge, shapely.points(pts))
+    d = shapely.distance(rings, shapely.points(pts))
     close = np.flatnonzero((d > 1e-9 * h) & (d < near))
     if close.size:
         k = int(close[0])
@@ -198,8 +300,10 @@ class _Repair:
 
     pts: FloatArray
     tris: IntArray
-    pinned: NDArray[np.bool_]
+    pinned: BoolArray  #: constraint nodes
     h: float
+    label: IntArray  #: the region of each triangle (splits and flips keep it)
+    held: BoolArray  #: nodes held besides the boundary's (subdomain interfaces)
 
     def node(self, q: FloatArray) -> int:
         """The node at ``q``: an existing one, a free interior one moved there, or a new one."""
@@ -211,7 +315,7 @@ class _Repair:
         boundary = Mesh(self.pts, self.tris).boundary_nodes
         order = np.argsort(d)[:4]
         for n in order.tolist():
-            if d[n] > 0.45 * self.h or boundary[n] or self.pinned[n]:
+            if d[n] > 0.45 * self.h or boundary[n] or self.pinned[n] or self.held[n]:
                 continue
             around = np.flatnonzero((self.tris == n).any(axis=1))
             moved = self.pts.copy()
@@ -232,6 +336,7 @@ class _Repair:
         n = len(self.pts)
         self.pts = np.vstack([self.pts, q])
         self.pinned = np.append(self.pinned, True)
+        self.held = np.append(self.held, False)
         i, j, k = self.tris[t].tolist()
         small = np.flatnonzero(np.abs(lam[t]) < 1e-9)
         if small.size:  # on the side opposite that corner: split it and its neighbour
@@ -239,6 +344,7 @@ class _Repair:
             u, v, w = np.roll(self.tris[t], -corner).tolist()  # side v-w, opposite u
             keep = [x for x in range(len(self.tris)) if x != t]
             new = [[u, v, n], [u, n, w]]
+            labels = [self.label[t]] * 2
             other = np.flatnonzero(((self.tris == v).any(axis=1)) & ((self.tris == w).any(axis=1)))
             other = other[other != t]
             if other.size:
@@ -246,11 +352,14 @@ class _Repair:
                 x = int(next(z for z in self.tris[o].tolist() if z not in (v, w)))
                 keep = [y for y in keep if y != o]
                 new += [[x, w, n], [x, n, v]]
+                labels += [self.label[o]] * 2
             self.tris = np.vstack([self.tris[keep], np.asarray(new, dtype=np.int64)])
+            self.label = np.concatenate([self.label[keep], np.asarray(labels, dtype=np.int64)])
         else:
             rest = np.delete(self.tris, t, axis=0)
             new3 = np.asarray([[i, j, n], [j, k, n], [k, i, n]], dtype=np.int64)
             self.tris = np.vstack([rest, new3])
+            self.label = np.concatenate([np.delete(self.label, t), np.full(3, self.label[t])])
         return n
 
     def recover(self, a: int, b: int) -> list[tuple[int, int]]:
@@ -293,6 +402,8 @@ class _Repair:
         if len(both) != 2:
             return False
         t1, t2 = (int(x) for x in both)
+        if self.label[t1] != self.label[t2]:
+            return False  # a subdomain interface is never flipped
         w1 = int(next(z for z in self.tris[t1].tolist() if z not in (u, v)))
         w2 = int(next(z for z in self.tris[t2].tolist() if z not in (u, v)))
         new = np.asarray([[w1, w2, u], [w2, w1, v]], dtype=np.int64)
@@ -309,14 +420,73 @@ class _Repair:
         return True
 
 
+@dataclass(frozen=True)
+class Inserted:
+    """What :func:`insert_constraints` returns: the repaired mesh and what it holds."""
+
+    mesh: Mesh
+    label: IntArray  #: (m,) the region of each triangle, carried through splits and flips
+    edges: IntArray  #: (k, 2) mesh edges along constraint lines
+    edge_constraint: IntArray  #: (k,) the input index of each edge's constraint
+    pinned: BoolArray  #: (n,) constraint nodes
+
+
+def insert_constraints(
+    mesh: Mesh,
+    region: Region,
+    geoms: Sequence[shapely.Geometry],
+    fields: Sequence[SizeField],
+    label: IntArray | None = None,
+    held: BoolArray | None = None,
+    should_stop: StopFn | None = None,
+) -> Inserted:
+    """Put checked constraints (:func:`check_constraints`) into ``mesh`` of ``region`` by local
+    repair: lines noded with each other and with the rings of ``region``'s parts (subdomain
+    interfaces), split at the smallest of ``fields``, points made nodes, pieces recovered by
+    flips. ``label`` (each triangle's region) is carried; no flip crosses a change of label and
+    no ``held`` node is moved. Polls ``should_stop`` between pieces."""
+    label = np.ones(mesh.n_triangles, dtype=np.int64) if label is None else label
+    held = np.zeros(mesh.n_points, dtype=bool) if held is None else held
+    pts, _, segs = _pieces(list(geoms), region, fields)
+    work = _Repair(
+        mesh.points.copy(), mesh.triangles.copy(), np.zeros(mesh.n_points, bool), 0.0,
+        label.copy(), held.copy(),
+    )  # fmt: skip
+    sizes = np.min([f(pts) for f in fields], axis=0)
+    index = []
+    for q, h in zip(pts, sizes, strict=True):
+        work.h = float(h)
+        index.append(work.node(q))
+    edges: list[tuple[int, int]] = []
+    owner: list[int] = []
+    for a, b, i in segs:
+        if should_stop is not None and should_stop():
+            raise Cancelled("stopped while putting in the constraints")
+        work.h = float(sizes[a])
+        chain = work.recover(index[a], index[b])
+        edges += chain
+        owner += [i] * len(chain)
+    return Inserted(
+        Mesh(work.pts, work.tris), work.label, np.asarray(edges, dtype=np.int64).reshape(-1, 2),
+        np.asarray(owner, dtype=np.int64), work.pinned,
+    )  # fmt: skip
+
+
 def mesh_with_constraints(
     region: Region,
     params: PipelineParams,
     constraints: Sequence[Mapping[str, Any]],
     rng: np.random.Generator | None = None,
+    progress: ProgressFn | None = None,
+    should_stop: StopFn | None = None,
+    keep: ArrayLike = (),
 ) -> Constrained:
     """Mesh ``region`` with ``constraints`` (GeoJSON (Multi)Point and (Multi)LineString
     geometries) as mesh nodes and chains of mesh edges; swap and smooth holding them.
+    Reports ``progress`` and polls ``should_stop`` as :func:`engine.mesh_then_smooth` does.
+    With ``sizing.resample`` the rings and the constraint lines are resampled together
+    (:func:`engine.resample.resample_constraints`; ``keep``: more ring vertices to keep, such
+    as the ends of named runs) and the summary's ``boundary`` reports both deviations.
 
     >>> from engine.boundary import make_region
     >>> from engine.params import SizingParams, SmoothingParams
@@ -328,30 +498,78 @@ def mesh_with_constraints(
     (0, True)
     """
     rng = rng if rng is not None else np.random.default_rng(0)
-    geoms = _geometries(constraints)
-    _check_inside(geoms, region)
-    field = build_size_field(region, params.sizing)
-    mesh, _ = mesh_region(region, params.sizing, params.relax, max_triangles=params.max_triangles)
-    pts, _, segs = _pieces(geoms, region, [field])
-    work = _Repair(mesh.points.copy(), mesh.triangles.copy(), np.zeros(mesh.n_points, bool), 0.0)
-    sizes = field(pts)
-    index = []
-    for q, h in zip(pts, sizes, strict=True):
-        work.h = float(h)
-        index.append(work.node(q))
-    edges: list[tuple[int, int]] = []
-    owner: list[int] = []
-    for a, b, i in segs:
-        work.h = float(sizes[a])
-        chain = work.recover(index[a], index[b])
-        edges += chain
-        owner += [i] * len(chain)
-    locked = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
-    fixed = Mesh(work.pts, work.tris)
-    result = improve_held(fixed, locked, work.pinned, params, rng)
+    geoms = check_constraints(constraints, region)
+    if progress is not None:
+        progress("boundary", 0.0)
+    boundary, sizing = None, params.sizing
+    if sizing.resample:
+        boundary, geoms, deviation = resample_constraints(region, sizing, geoms, keep)
+        region, sizing = boundary.region, replace(sizing, resample=False)
+        _check_inside(geoms, region)
+    field = build_size_field(region, sizing)
+    mesh, _ = mesh_region(region, sizing, params.relax, should_stop, params.max_triangles, progress)
+    got = insert_constraints(mesh, region, geoms, [field], should_stop=should_stop)
+    if progress is not None:
+        progress("mesh", 1.0)
+    result = improve_held(got.mesh, got.edges, got.pinned, params, rng, progress, should_stop)
+    result.parameters["constraints"] = plain_geometries(geoms)
+    if boundary is not None:
+        summary = {**boundary.summary(), "constraints_max_deviation": deviation}
+        result.smoothed.summary["boundary"] = summary
     return Constrained(
         result=result,
-        edges=locked,
-        edge_constraint=np.asarray(owner, dtype=np.int64),
-        nodes=np.flatnonzero(work.pinned).astype(np.int64),
+        edges=got.edges,
+        edge_constraint=got.edge_constraint,
+        nodes=np.flatnonzero(got.pinned).astype(np.int64),
+        region=region,
+        boundary=boundary,
     )
+
+
+def improve_held(
+    mesh: Mesh,
+    locked: IntArray,
+    pinned: BoolArray,
+    params: PipelineParams,
+    rng: np.random.Generator,
+    progress: ProgressFn | None = None,
+    should_stop: StopFn | None = None,
+) -> Result:
+    """Swap with the ``locked`` edges held and smooth with the ``pinned`` nodes held (as
+    boundary nodes); the stages as :func:`engine.mesh_then_smooth` reports them, with its
+    ``progress`` stages ``swap`` and ``smooth``, polling ``should_stop`` between them."""
+    progress = progress or _quiet
+    should_stop = should_stop or _never
+    first = assess_mesh(mesh, params.smoothing)
+    held = PinnedMesh(mesh.points, mesh.triangles, pinned)
+    if should_stop():
+        raise Cancelled("stopped before swapping")
+    progress("swap", 0.0)
+    swapped = (
+        swap_diagonals(held, locked, relax=params.smoothing.method != "none")
+        if params.swap
+        else held
+    )
+    progress("swap", 1.0)
+    second = assess_mesh(swapped, params.smoothing)
+    if should_stop():
+        raise Cancelled("stopped before smoothing")
+    progress("smooth", 0.0)
+    outcome = smooth_points(
+        PinnedMesh(swapped.points, swapped.triangles, pinned), params.smoothing, rng,
+        progress, should_stop,
+    )  # fmt: skip
+    progress("smooth", 1.0)
+    final = assess_mesh(swapped.with_points(outcome.points), params.smoothing)
+    return Result(
+        initial=first, swapped=second, smoothed=final, history=outcome.history,
+        parameters=params.to_dict(), timings={},
+    )  # fmt: skip
+
+
+def _quiet(stage: str, fraction: float) -> None:
+    del stage, fraction
+
+
+def _never() -> bool:
+    return False

@@ -1,15 +1,17 @@
-"""Refinements: ask for size ``s`` on and near a geometry, growing away from it at the job's rate.
+"""Refinements: ask for size ``s`` on and near a geometry, growing away from it at its own rate
+(the job's ``growth`` unless the refinement gives one).
 
 A refinement becomes features of the size field (:mod:`engine.sizing`): points sampled on the
 geometry every ``s / 2`` (on lines and polygon edges) and on an ``s / 2`` grid inside polygons,
-each asking for ``s``. The field is the lower envelope of their cones and the region's own, so
-refinements combine with the region's sizing by the minimum; between samples the envelope is
-within ``1 + (growth - 1) / 4`` of ``s``.
+each asking for ``s`` and growing at the refinement's rate. The field is the lower envelope of
+their cones and the region's own, so refinements combine with the region's sizing (and with
+each other) by the minimum; between samples the envelope is within ``1 + (growth - 1) / 4`` of
+``s``.
 
->>> r = Refinement({"type": "LineString", "coordinates": [[0, 0], [1, 0]]}, size=0.25)
->>> xy, h = refinement_features([r])
->>> xy[:, 0].tolist(), set(h.tolist())
-([0.0, 0.125, 0.25, 0.375, 0.5, 0.625, 0.75, 0.875, 1.0], {0.25})
+>>> r = Refinement({"type": "LineString", "coordinates": [[0, 0], [1, 0]]}, size=0.25, growth=1.1)
+>>> xy, h, slope = refinement_features([r], growth=1.2)
+>>> xy[:, 0].tolist(), set(h.tolist()), set(np.round(slope, 6).tolist())
+([0.0, 0.125, 0.25, 0.375, 0.5, 0.625, 0.75, 0.875, 1.0], {0.25}, {0.1})
 """
 
 from __future__ import annotations
@@ -43,15 +45,21 @@ class InvalidRefinement(EngineError, ValueError):
 @dataclass(frozen=True)
 class Refinement:
     """Size ``size`` on ``geometry`` (a GeoJSON geometry mapping: Point, LineString, Polygon,
-    their Multi* forms or a GeometryCollection)."""
+    their Multi* forms or a GeometryCollection), growing away at ``growth`` (``None``: the
+    job's)."""
 
     geometry: Mapping[str, Any]
     size: float
+    growth: float | None = None
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.size) and self.size > 0):
             raise InvalidRefinement(
                 f"a refinement's size must be a positive number, not {self.size}"
+            )
+        if self.growth is not None and not (math.isfinite(self.growth) and self.growth > 1.0):
+            raise InvalidRefinement(
+                f"a refinement's growth must be a number greater than 1, not {self.growth}"
             )
         self.shape()
 
@@ -89,12 +97,18 @@ def _samples(geom: shapely.Geometry, step: float) -> FloatArray:
     return np.unique(np.concatenate(pts), axis=0)
 
 
-def refinement_features(refinements: Sequence[Refinement]) -> tuple[FloatArray, FloatArray]:
-    """Feature points and the size each asks for, for :func:`engine.sizing.build_size_field`."""
+def refinement_features(
+    refinements: Sequence[Refinement], growth: float
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Feature points, the size each asks for and the slope (``growth - 1``) each grows at
+    (``growth``: the job's, for refinements without their own), for
+    :func:`engine.sizing.build_size_field`."""
     xy: list[FloatArray] = [np.empty((0, 2))]
     h: list[FloatArray] = [np.empty(0)]
+    slope: list[FloatArray] = [np.empty(0)]
     for r in refinements:
         pts = _samples(r.shape(), r.size / _SAMPLES_PER_SIZE)
         xy.append(pts)
         h.append(np.full(len(pts), float(r.size)))
-    return np.concatenate(xy), np.concatenate(h)
+        slope.append(np.full(len(pts), (r.growth or growth) - 1.0))
+    return np.concatenate(xy), np.concatenate(h), np.concatenate(slope)

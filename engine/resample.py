@@ -6,6 +6,12 @@ first simplifies each ring to the local size: vertices at real corners stay, the
 thinned with Douglas-Peucker (shapely's ``simplify``) so that the new ring stays within
 ``tolerance`` of the input; the usual discretisation then splits it to the size field.
 
+Constraint lines are resampled the same way (:func:`resample_lines`: their ends, corners and
+the points given as ``keep`` stay), and ``keep`` points that are ring vertices (the ends of a
+named run of a ring, constraint vertices on a ring) stay as corners, so what was drawn on the
+input lands on the resampled boundary: :meth:`Resampled.map_path` maps a path of input
+vertices (a tag run's) to the vertices of it that stay.
+
 The local size used here is the smallest size asked for anywhere (``size`` within its clamps,
 and each refinement's size): the field itself depends on the boundary, so it is built on the
 resampled region afterwards.
@@ -21,12 +27,13 @@ resampled region afterwards.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from itertools import pairwise
 
 import numpy as np
 import shapely
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from .boundary import Region, make_region
 from .errors import InvalidBoundary
@@ -37,8 +44,11 @@ __all__ = [
     "DEFAULT_TOLERANCE",
     "Resampled",
     "corners",
+    "resample_constraints",
+    "resample_lines",
     "resample_region",
     "resample_size",
+    "resample_tolerance",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -62,6 +72,20 @@ class Resampled:
     tolerance: float  #: the tolerance that gave a valid region (0 when the input was kept)
     vertices_before: int
     vertices_after: int
+
+    def map_path(self, path: ArrayLike) -> FloatArray:
+        """The vertices of ``path`` (input ring vertices, in order) that are vertices of the
+        resampled region: a run between two kept vertices, as the resampled ring has it.
+
+        >>> from engine.boundary import make_region
+        >>> square = make_region([([[0, 0], [0.5, 0.001], [1, 0], [1, 1], [0, 1]], [])])
+        >>> out = resample_region(square, SizingParams(size=1.0, resample=True), keep=[[1, 0]])
+        >>> out.map_path([[0, 0], [0.5, 0.001], [1, 0], [1, 1]]).tolist()
+        [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]]
+        """
+        xy = np.asarray(path, dtype=np.float64)[:, :2]
+        kept = {tuple(p) for r in self.region.rings for p in r.tolist()}
+        return xy[[tuple(p) in kept for p in xy.tolist()]]
 
     def summary(self) -> dict[str, float | int]:
         """The figures a result's ``summary["boundary"]`` carries."""
@@ -101,39 +125,69 @@ def _at(ring: FloatArray, s_of: FloatArray, perimeter: float, s: FloatArray) -> 
     return np.c_[np.interp(s, closed_s, closed[:, 0]), np.interp(s, closed_s, closed[:, 1])]
 
 
-def corners(ring: FloatArray, window: float) -> IntArray:
-    """Indices of the vertices of ``ring`` where it turns by more than :data:`CORNER_DEG`
-    across ``window`` (centred on the vertex); of those within the window of each other, the
-    sharpest.
+def _at_open(line: FloatArray, s_of: FloatArray, s: FloatArray) -> FloatArray:
+    """Points at arc lengths ``s`` along the open ``line`` (clamped to its ends)."""
+    return np.c_[np.interp(s, s_of, line[:, 0]), np.interp(s, s_of, line[:, 1])]
+
+
+def corners(ring: FloatArray, window: float, closed: bool = True) -> IntArray:
+    """Indices of the vertices of ``ring`` (an open line when not ``closed``: its ends do not
+    count) where it turns by more than :data:`CORNER_DEG` across ``window`` (centred on the
+    vertex); of those within the window of each other, the sharpest.
 
     >>> corners(np.array([[0.0, 0], [1, 0], [2, 0], [2, 1], [2, 2], [0, 2]]), 0.5).tolist()
     [0, 2, 4, 5]
+    >>> corners(np.array([[0.0, 0], [1, 0], [2, 0], [2, 1], [2, 2], [0, 2]]), 0.5, False).tolist()
+    [2, 4]
     """
-    s_of, perimeter = _arc(ring)
-    half = min(0.5 * window, perimeter / 8.0)
-    back = _at(ring, s_of, perimeter, s_of - half)
-    fwd = _at(ring, s_of, perimeter, s_of + half)
+    if closed:
+        s_of, perimeter = _arc(ring)
+        half = min(0.5 * window, perimeter / 8.0)
+        back = _at(ring, s_of, perimeter, s_of - half)
+        fwd = _at(ring, s_of, perimeter, s_of + half)
+    else:
+        s_of = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(ring, axis=0).T))))
+        perimeter = float(s_of[-1])
+        half = min(0.5 * window, perimeter / 8.0)
+        back, fwd = _at_open(ring, s_of, s_of - half), _at_open(ring, s_of, s_of + half)
     d_in, d_out = ring - back, fwd - ring
     cross = d_in[:, 0] * d_out[:, 1] - d_in[:, 1] * d_out[:, 0]
     turn = np.degrees(np.abs(np.arctan2(cross, (d_in * d_out).sum(axis=1))))
     sharp = turn > CORNER_DEG
+    if not closed:  # the ends are kept anyway; near them the window is cut short
+        sharp &= (s_of >= half) & (s_of <= perimeter - half)
     if not sharp.any():
         return np.empty(0, dtype=np.int64)
     # Of the vertices within the window of each other, the sharpest (the vertices next to a
     # corner see it inside their window too, turning less).
-    closed_s = np.r_[s_of - perimeter, s_of, s_of + perimeter]
-    turns = np.r_[turn, turn, turn]
+    if closed:
+        closed_s = np.r_[s_of - perimeter, s_of, s_of + perimeter]
+        turns = np.r_[turn, turn, turn]
+    else:
+        closed_s, turns = s_of, turn
     picked = []
     for i in np.flatnonzero(sharp):
         lo, hi = np.searchsorted(closed_s, [s_of[i] - half, s_of[i] + half], side="left")
+        hi = min(hi, len(turns) - 1)
         if turn[i] >= turns[lo : hi + 1].max():
             picked.append(i)
     return np.sort(np.asarray(picked, dtype=np.int64))
 
 
-def _simplify_ring(ring: FloatArray, window: float, tolerance: float) -> FloatArray:
-    """``ring`` thinned between its corners (kept) to within ``tolerance``."""
-    anchors = corners(ring, window)
+def _kept(xy: FloatArray, keep: FloatArray) -> IntArray:
+    """Indices of the vertices of ``xy`` that are points of ``keep``."""
+    if not len(keep):
+        return np.empty(0, dtype=np.int64)
+    wanted = {tuple(p) for p in keep.tolist()}
+    return np.flatnonzero([tuple(p) in wanted for p in xy.tolist()]).astype(np.int64)
+
+
+def _simplify_ring(
+    ring: FloatArray, window: float, tolerance: float, keep: FloatArray
+) -> FloatArray:
+    """``ring`` thinned between its corners and its ``keep`` points (kept) to within
+    ``tolerance``."""
+    anchors = np.union1d(corners(ring, window), _kept(ring, keep))
     if len(anchors) < 3:  # a smooth ring: anchor it at thirds of its length as well
         s_of, perimeter = _arc(ring)
         thirds = np.searchsorted(s_of, perimeter * np.arange(3) / 3.0)
@@ -158,18 +212,21 @@ def _deviation(before: FloatArray, after: FloatArray) -> float:
     return float(shapely.distance(shapely.points(before), shapely.linearrings(after)).max())
 
 
-def resample_region(region: Region, sizing: SizingParams) -> Resampled:
+def resample_region(region: Region, sizing: SizingParams, keep: ArrayLike = ()) -> Resampled:
     """``region`` with each ring re-discretised to the local size (:func:`resample_size`):
-    corners kept, every input vertex within the tolerance (``sizing.resample_tolerance``, by
-    default :data:`DEFAULT_TOLERANCE` of the size) of the new boundary. When the simplified
-    region is not valid (rings crossing or touching), the tolerance is halved and tried again;
-    after :data:`_RETRIES` halvings the input is kept."""
+    corners and the ring vertices that are ``keep`` points kept, every input vertex within the
+    tolerance (``sizing.resample_tolerance``, by default :data:`DEFAULT_TOLERANCE` of the size)
+    of the new boundary. When the simplified region is not valid (rings crossing or touching),
+    the tolerance is halved and tried again; after :data:`_RETRIES` halvings the input is
+    kept."""
     h = resample_size(sizing)
-    tolerance = sizing.resample_tolerance
-    tolerance = DEFAULT_TOLERANCE * h if tolerance is None else tolerance
+    tolerance = resample_tolerance(sizing)
+    fixed = np.asarray(keep, dtype=np.float64).reshape(-1, 2)
     before = region.n_vertices
     for _ in range(_RETRIES + 1):
-        parts = [[_simplify_ring(r, h, tolerance) for r in part.rings] for part in region.parts]
+        parts = [
+            [_simplify_ring(r, h, tolerance, fixed) for r in part.rings] for part in region.parts
+        ]
         try:
             simplified = make_region([(rings[0], rings[1:]) for rings in parts])
         except InvalidBoundary:
@@ -182,3 +239,90 @@ def resample_region(region: Region, sizing: SizingParams) -> Resampled:
         )
         return Resampled(simplified, deviation, tolerance, before, simplified.n_vertices)
     return Resampled(region, 0.0, 0.0, before, before)
+
+
+def resample_tolerance(sizing: SizingParams) -> float:
+    """The largest distance resampling may move the boundary: ``sizing.resample_tolerance``,
+    by default :data:`DEFAULT_TOLERANCE` of :func:`resample_size`."""
+    given = sizing.resample_tolerance
+    return DEFAULT_TOLERANCE * resample_size(sizing) if given is None else given
+
+
+def resample_lines(
+    lines: Sequence[FloatArray], window: float, tolerance: float, keep: ArrayLike = ()
+) -> tuple[list[FloatArray], float]:
+    """Open polylines (constraint lines) thinned as rings are: their ends, corners (turning
+    by more than :data:`CORNER_DEG` across ``window``) and ``keep`` points stay, the rest within
+    ``tolerance``; and the largest distance of an input vertex from its thinned line.
+
+    >>> t = np.linspace(0, 1, 201)
+    >>> wiggly = np.c_[t, 1e-4 * np.sin(300 * t)]
+    >>> out, deviation = resample_lines([wiggly], 0.2, 0.01, keep=[wiggly[100]])
+    >>> len(out[0]), out[0][1].tolist() == wiggly[100].tolist(), deviation < 1e-3
+    (3, True, True)
+    """
+    fixed = np.asarray(keep, dtype=np.float64).reshape(-1, 2)
+    out, deviation = [], 0.0
+    for xy in lines:
+        xy = np.asarray(xy, dtype=np.float64)[:, :2]
+        anchors = np.union1d(np.r_[0, len(xy) - 1, corners(xy, window, False)], _kept(xy, fixed))
+        pieces = [shapely.LineString(xy[a : b + 1]) for a, b in pairwise(anchors.tolist())]
+        thinned = shapely.simplify(np.array(pieces), tolerance, preserve_topology=False)
+        coords = [shapely.get_coordinates(p) for p in thinned]
+        line = np.concatenate([coords[0], *(c[1:] for c in coords[1:])]) if coords else xy
+        deviation = max(
+            deviation, float(shapely.distance(shapely.points(xy), shapely.LineString(line)).max())
+        )
+        out.append(line)
+    return out, deviation
+
+
+def resample_constraints(
+    region: Region, sizing: SizingParams, geoms: Sequence[shapely.Geometry], keep: ArrayLike = ()
+) -> tuple[Resampled, list[shapely.Geometry], float]:
+    """Resample ``region`` and the constraint lines of ``geoms`` together: every constraint
+    vertex and ``keep`` point that is a ring vertex stays one, vertices shared by constraint
+    lines stay, a constraint vertex that lay on a ring (between its vertices) is put on the
+    resampled ring. Returns the resampled region, the constraints and the largest distance of
+    a constraint line's vertex from its resampled line."""
+    mine = [shapely.get_coordinates(g) for g in geoms]
+    vertices = np.concatenate([np.empty((0, 2)), *mine])
+    given = np.asarray(keep, dtype=np.float64).reshape(-1, 2)
+    resampled = resample_region(region, sizing, keep=np.concatenate([vertices, given]))
+    old = shapely.union_all([shapely.LinearRing(r) for r in region.rings])
+    new = shapely.union_all([shapely.LinearRing(r) for r in resampled.region.rings])
+    x0, y0, x1, y1 = region.bounds
+    on = 1e-9 * max(x1 - x0, y1 - y0)
+    # Vertices of more than one line (junctions) and on a ring stay where they are.
+    lines = [
+        shapely.get_coordinates(part)
+        for g in geoms
+        if "Line" in g.geom_type
+        for part in getattr(g, "geoms", [g])
+    ]
+    seen = np.concatenate([np.empty((0, 2)), *(np.unique(xy, axis=0) for xy in lines)])
+    uniq, count = np.unique(seen, axis=0, return_counts=True)
+    touching = vertices[shapely.distance(old, shapely.points(vertices)) < on]
+    joints = np.concatenate([uniq[count > 1], touching, given])
+    tolerance = resampled.tolerance or resample_tolerance(sizing)
+    thinned, deviation = resample_lines(lines, resample_size(sizing), tolerance, keep=joints)
+
+    def onto_rings(xy: FloatArray) -> FloatArray:
+        pts = shapely.points(xy)
+        moved = (shapely.distance(old, pts) < on) & (shapely.distance(new, pts) > on)
+        if moved.any():
+            xy = xy.copy()
+            at = shapely.line_locate_point(new, pts[moved])
+            xy[moved] = shapely.get_coordinates(shapely.line_interpolate_point(new, at))
+        return xy
+
+    out, k = [], 0
+    for g in geoms:
+        if "Line" in g.geom_type:
+            n = len(getattr(g, "geoms", [g]))
+            parts = [shapely.LineString(onto_rings(xy)) for xy in thinned[k : k + n]]
+            k += n
+            out.append(parts[0] if g.geom_type == "LineString" else shapely.MultiLineString(parts))
+        else:
+            out.append(shapely.transform(g, onto_rings))
+    return resampled, out, deviation

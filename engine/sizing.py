@@ -270,14 +270,18 @@ def build_size_field(
         raise Cancelled("stopped while sizing")
     ga, gb, g0, g1, samples = _gap_features(region, vertex_field, should_stop)
     progress("sizing", 0.8)
-    rxy, rh = refinement_features(params.refinements)  # refinements are point features too
+    # Refinements are point features too, each growing at its own rate.
+    rxy, rh, rslope = refinement_features(params.refinements, params.growth)
     if len(g0) == 0 and len(rh) == 0 and size_min == 0.0:
         progress("sizing", 1.0)
         return SizeField(vertex_field.tree, samples)  # the same features: the same tree
     fa, fb = np.concatenate([vxy, ga, rxy]), np.concatenate([vxy, gb, rxy])
     ha = np.maximum(np.concatenate([vh, g0, rh]), size_min)
     hb = np.maximum(np.concatenate([vh, g1, rh]), size_min)
+    slopes = np.concatenate([np.full(len(vh) + len(g0), slope), rslope])
     keep = np.minimum(ha, hb) < size
-    tree = build_tree(size, slope, size_min, (x0, y0), fa[keep], fb[keep], ha[keep], hb[keep])
+    tree = build_tree(
+        size, slope, size_min, (x0, y0), fa[keep], fb[keep], ha[keep], hb[keep], slopes[keep]
+    )
     progress("sizing", 1.0)
     return SizeField(tree, samples)

@@ -10,30 +10,40 @@ with its own size, each triangle knowing its polygon.
 4. Each polygon is meshed alone (its size: its own ``h``; a neighbour's smaller ``h`` grades in
    from their common boundary as a refinement), and the meshes are merged on their identical
    shared nodes.
-5. Swapping never flips an interface edge and smoothing never moves an interface node
-   (:class:`PinnedMesh`), so the regions keep their polygons' shapes.
+5. Constraints (lines and points, :mod:`engine.constraints`) are put into the merged mesh,
+   their lines noded where they cross an interface; no repair flip crosses an interface.
+6. Swapping never flips an interface or constraint edge and smoothing never moves an
+   interface or constraint node (:class:`~engine.constraints.PinnedMesh`), so the regions keep
+   their polygons' shapes.
 """
 
 from __future__ import annotations
 
-import math
-from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
-from functools import cached_property
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 import shapely
 from numpy.typing import NDArray
 
 from .boundary import PartInput, PolygonPart, Region, make_region
-from .errors import InvalidBoundary, MeshingError
+from .constraints import (
+    Constrained,
+    PinnedMesh,
+    check_constraints,
+    improve_held,
+    insert_constraints,
+    plain_geometries,
+    split_segment,
+)
+from .errors import Cancelled, InvalidBoundary, MeshingError
 from .mesh import Mesh, validate_mesh
 from .params import PipelineParams, SizingParams
-from .pipeline import assess_mesh, mesh_region
+from .pipeline import mesh_region
 from .refinement import Refinement
-from .result import Result
+from .result import ProgressFn, Result, StopFn
 from .sizing import SizeField, build_size_field
-from .smoothing import smooth_points
 from .tags import interface_edges
 
 __all__ = ["PinnedMesh", "Subdomains", "improve_held", "mesh_subdomains", "split_segment"]
@@ -47,24 +57,14 @@ _TOL = 1e-9
 
 
 @dataclass(frozen=True)
-class PinnedMesh(Mesh):
-    """A mesh whose ``pinned`` nodes count as boundary nodes, so that no smoother moves them."""
-
-    pinned: BoolArray = field(default_factory=lambda: np.zeros(0, dtype=bool), repr=False)
-
-    @cached_property
-    def boundary_nodes(self) -> BoolArray:
-        mask: BoolArray = Mesh.boundary_nodes.func(self)  # type: ignore[attr-defined]
-        return mask | self.pinned if len(self.pinned) else mask
-
-
-@dataclass(frozen=True)
 class Subdomains:
     """What :func:`mesh_subdomains` returns."""
 
     result: Result  #: the pipeline's stages, as :func:`engine.mesh_then_smooth` returns them
     region: Region  #: the noded polygons (a region whose parts touch: for engine.tags)
     triangle_region: IntArray  #: (m,) 1-based polygon of each final triangle
+    #: The constraints put in (their edges, nodes and owners; ``result`` is the same), if any.
+    constraints: Constrained | None = None
 
 
 def _check_overlaps(polys: list[shapely.Polygon], tol: float) -> None:
@@ -100,23 +100,6 @@ def _insert(ring: FloatArray, extra: FloatArray, tol: float) -> FloatArray:
             order = np.argsort(t[mine])
             out.append(extra[si[mine][order]])
     return np.concatenate(out)
-
-
-def split_segment(a: FloatArray, b: FloatArray, fields: Sequence[SizeField]) -> FloatArray:
-    """Points splitting ``a -> b`` into ``ceil(integral of ds / h)`` equal pieces of that
-    integral, ``h`` the smaller of ``fields``."""
-    length = float(np.hypot(*(b - a)))
-    m = 64
-    for _ in range(2):  # sample, then resample at a quarter of the smallest size found
-        t = np.linspace(0.0, 1.0, m)
-        xy = a + t[:, None] * (b - a)
-        h = np.min([f(xy) for f in fields], axis=0)
-        m = int(min(max(64, math.ceil(4 * length / h.min())), 4_000_000))
-    inv = 1.0 / h
-    cum = np.concatenate([[0.0], np.cumsum(0.5 * (inv[1:] + inv[:-1]) * np.diff(t) * length)])
-    n = max(math.ceil(cum[-1] - 1e-9), 1)
-    ts = np.interp(cum[-1] * np.arange(1, n) / n, cum, t)
-    return a + ts[:, None] * (b - a)
 
 
 def _key(a: FloatArray, b: FloatArray) -> tuple[float, float, float, float]:
@@ -183,9 +166,15 @@ def mesh_subdomains(
     params: PipelineParams,
     sizes: Sequence[float | None] = (),
     rng: np.random.Generator | None = None,
+    constraints: Sequence[Mapping[str, Any]] = (),
+    progress: ProgressFn | None = None,
+    should_stop: StopFn | None = None,
 ) -> Subdomains:
-    """Mesh polygons that may share edges as one conforming mesh, then swap and smooth it with
-    interface edges and nodes held; ``sizes[i]`` is polygon ``i``'s size (``None``: the job's).
+    """Mesh polygons that may share edges as one conforming mesh, put ``constraints`` (as
+    :func:`engine.mesh_with_constraints` takes them) into it, then swap and smooth it with
+    interface and constraint edges and nodes held; ``sizes[i]`` is polygon ``i``'s size
+    (``None``: the job's). Reports ``progress`` (``boundary``, ``mesh`` by polygon, ``swap``,
+    ``smooth``) and polls ``should_stop`` as :func:`engine.mesh_then_smooth` does.
 
     >>> left = ([[0, 0], [1, 0], [1, 1], [0, 1]], [])
     >>> right = ([[1, 0], [2, 0], [2, 1], [1, 1], [1, 0.5]], [])
@@ -196,6 +185,9 @@ def mesh_subdomains(
     ([1, 2], 0)
     """
     rng = rng if rng is not None else np.random.default_rng(0)
+    progress = progress or _quiet
+    stop = should_stop or _never
+    progress("boundary", 0.0)
     regions = []
     for i, part in enumerate(parts):
         try:
@@ -225,11 +217,15 @@ def mesh_subdomains(
     sizes = list(sizes) + [None] * (len(parts) - len(sizes))
     sizing = [_sizing(params.sizing, sizes, noded, i) for i in range(len(noded))]
     fields = [build_size_field(Region((p,)), s) for p, s in zip(noded, sizing, strict=True)]
+    whole = Region(tuple(noded))
+    geoms = check_constraints(constraints, whole) if constraints else []
     split = _split_shared(noded, fields, tol)
-    meshes = [
-        mesh_region(Region((p,)), s, params.relax, max_triangles=params.max_triangles)[0]
-        for p, s in zip(split, sizing, strict=True)
-    ]
+    meshes = []
+    for k, (p, s) in enumerate(zip(split, sizing, strict=True)):
+        if stop():
+            raise Cancelled("stopped while meshing the subdomains")
+        progress("mesh", k / len(split))
+        meshes.append(mesh_region(Region((p,)), s, params.relax, stop, params.max_triangles)[0])
     mesh, region = _merge(meshes)
     try:
         mesh = validate_mesh(mesh.points, mesh.triangles)
@@ -251,42 +247,36 @@ def mesh_subdomains(
         > 1e-6 * outline.length
     ):
         raise MeshingError("the subdomain meshes do not conform along a shared edge")
+    interfaces, _ = interface_edges(mesh.triangles, region)
+    held = np.zeros(mesh.n_points, dtype=bool)
+    held[interfaces.ravel()] = True
+    got = None
+    if geoms:
+        got = insert_constraints(mesh, Region(tuple(split)), geoms, fields, region, held, stop)
+        mesh, region = got.mesh, got.label
+        held = np.r_[held, np.zeros(mesh.n_points - len(held), dtype=bool)] | got.pinned
+    progress("mesh", 1.0)
     # No flip crosses an interface, so triangles keep their regions through swapping.
-    locked, _ = interface_edges(mesh.triangles, region)
-    pinned = np.zeros(mesh.n_points, dtype=bool)
-    pinned[locked.ravel()] = True
+    interfaces, _ = interface_edges(mesh.triangles, region)
+    locked = interfaces if got is None else np.concatenate([interfaces, got.edges])
+    result = improve_held(mesh, locked, held, params, rng, progress, should_stop)
+    if geoms:
+        result.parameters["constraints"] = plain_geometries(geoms)
     return Subdomains(
-        result=improve_held(mesh, locked, pinned, params, rng),
+        result=result,
         region=Region(tuple(split)),
         triangle_region=region,
+        constraints=None
+        if got is None
+        else Constrained(
+            result, got.edges, got.edge_constraint, np.flatnonzero(got.pinned).astype(np.int64)
+        ),
     )
 
 
-def improve_held(
-    mesh: Mesh,
-    locked: IntArray,
-    pinned: BoolArray,
-    params: PipelineParams,
-    rng: np.random.Generator,
-) -> Result:
-    """Swap with the ``locked`` edges held and smooth with the ``pinned`` nodes held (as
-    boundary nodes); the stages as :func:`engine.mesh_then_smooth` reports them."""
-    from .swap import swap_diagonals
+def _quiet(stage: str, fraction: float) -> None:
+    del stage, fraction
 
-    first = assess_mesh(mesh, params.smoothing)
-    held = PinnedMesh(mesh.points, mesh.triangles, pinned)
-    swapped = (
-        swap_diagonals(held, locked, relax=params.smoothing.method != "none")
-        if params.swap
-        else held
-    )
-    second = assess_mesh(swapped, params.smoothing)
-    outcome = smooth_points(
-        PinnedMesh(swapped.points, swapped.triangles, pinned), params.smoothing, rng,
-        lambda stage, f: None, lambda: False,
-    )  # fmt: skip
-    final = assess_mesh(swapped.with_points(outcome.points), params.smoothing)
-    return Result(
-        initial=first, swapped=second, smoothed=final, history=outcome.history,
-        parameters=params.to_dict(), timings={},
-    )  # fmt: skip
+
+def _never() -> bool:
+    return False

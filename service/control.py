@@ -13,16 +13,16 @@ from typing import Any
 import numpy as np
 import orjson
 import shapely
+from pyproj.exceptions import ProjError
 from shapely.geometry import mapping
 
 import engine
-from engine.constraints import _check_inside as check_inside
-from engine.constraints import _geometries as constraint_geometries
 from engine.refinement import InvalidRefinement
 from engine.sizing import build_size_field
 
 from .boundary_tags import region_name, tag_runs
-from .geo import project_rings
+from .geo import Projection, project_rings
+from .geo.shapes import project_geometry, snap_vertices
 from .geojson import ParsedRegion, build_region, parse_region
 from .inputs import RefinementInput
 from .problems import Problem
@@ -44,6 +44,9 @@ __all__ = [
 #: Share of boundary segments shorter than the size past which a refusal explains that every
 #: boundary vertex is kept (the boundary, not the area, then drives the triangle count).
 _DENSE_SHARE = 0.5
+#: Lon/lat constraint vertices this close to a ring (relative to the region's extent) in the
+#: plane lie on it in the input: the chord of a projected edge is off its lon/lat line by less.
+_SNAP = 1e-5
 
 
 def _short_share(region: engine.Region, size: float) -> float:
@@ -109,19 +112,50 @@ def _features(
     return [({}, 0, parts, at)]
 
 
+def _renumber(run: dict[str, Any], projection: Projection | None, part: int) -> dict[str, Any]:
+    """A run's ``from`` / ``to`` (input vertices) as vertices of the densified lon/lat ring the
+    job meshes: each input vertex stays a vertex, the first of the pieces of its edge."""
+    if projection is None or projection.origins is None:
+        return run
+    starts = projection.origins[part + run.get("polygon", 0)][run.get("ring", 0)]
+    at = {k: int(np.searchsorted(starts, run[k])) for k in ("from", "to")}
+    return {**run, **at}
+
+
+def _input_polygons(parsed: ParsedRegion, start: int, stop: int) -> list[list[Any]]:
+    """Parts ``start:stop`` as lists of rings numbered as the input's (densified lon/lat rings:
+    their input vertices only)."""
+    origins = parsed.projection.origins if parsed.projection is not None else None
+    out = []
+    for k in range(start, stop):
+        outer, holes = parsed.parts[k]
+        rings: list[Any] = [outer, *holes]
+        if origins is not None:
+            rings = [
+                np.asarray(r)[np.searchsorted(o, np.arange(int(o.max()) + 1))]
+                for r, o in zip(rings, origins[k], strict=True)
+            ]
+        out.append(rings)
+    return out
+
+
 def stored_tagging(boundary: Any, parsed: ParsedRegion, at: str) -> dict[str, Any]:
     """The tagging a job keeps (plain JSON): each part's region name and each Feature's tag
-    runs, checked now so a bad run is a 422 pointing at it."""
+    runs, checked now so a bad run is a 422 pointing at it. Runs are kept in the numbering of
+    the rings the job meshes (lon/lat rings split at the size: renumbered)."""
     names: list[str | None] = []
     features = []
     for props, start, stop, ptr in _features(boundary, len(parsed.parts), parsed.ring_pointers, at):
         name = region_name(props)
         # A MultiPolygon Feature's polygons are regions of their own: "name", "name-1", ...
         names += [name if k == 0 or name is None else f"{name}-{k}" for k in range(stop - start)]
-        polygons = [[outer, *holes] for outer, holes in parsed.parts[start:stop]]
-        tag_runs(props, polygons, ptr)  # BoundaryInputError: a 422 at the faulty run
+        tag_runs(props, _input_polygons(parsed, start, stop), ptr)  # a 422 at a faulty run
         runs = [
-            {k: run[k] for k in ("name", "polygon", "ring", "from", "to") if k in run}
+            _renumber(
+                {k: run[k] for k in ("name", "polygon", "ring", "from", "to") if k in run},
+                parsed.projection,
+                start,
+            )
             for run in props.get("tags", [])
         ]
         if runs:
@@ -144,20 +178,42 @@ def tagging_of(stored: dict[str, Any] | None, parts: Any) -> engine.Tagging:
 
 def refinements_of(stored: Sequence[Mapping[str, Any]]) -> tuple[engine.Refinement, ...]:
     """The engine's refinements of a job's stored ``refinements``."""
-    return tuple(engine.Refinement(r["geometry"], float(r["size"])) for r in stored)
+    return tuple(
+        engine.Refinement(r["geometry"], float(r["size"]), r.get("growth")) for r in stored
+    )
+
+
+def _in_plane(
+    geometry: Mapping[str, Any], projection: Projection | None, densify: float | None, at: str
+) -> dict[str, Any]:
+    """``geometry`` (checked GeoJSON, in the input CRS) in the meshing plane; a 422 at ``at``
+    when the projection cannot map it (a position outside the CRS's range)."""
+    try:
+        return project_geometry(geometry, projection, densify)
+    except (ProjError, ValueError, TypeError, KeyError) as exc:
+        raise Problem(
+            422, f"the geometry cannot be projected: {exc}", kind="invalid-input", pointer=at
+        ) from None
 
 
 def checked_refinements(
-    refinements: Sequence[RefinementInput], planar: bool, vertices: int, limit: int, at: str
+    refinements: Sequence[RefinementInput],
+    projection: Projection | None,
+    vertices: int,
+    limit: int,
+    at: str,
+    densify: float | None = None,
 ) -> list[dict[str, Any]]:
-    """The refinements as a job keeps them (plain GeoJSON); a 422 at ``at/i`` for one the engine
-    refuses, and at ``at`` when their vertices and the boundary's (``vertices``) pass ``limit``."""
-    if refinements and not planar:
-        raise Problem(422, "refinements need planar coordinates", kind="invalid-input", pointer=at)
+    """The refinements as a job keeps them (plain GeoJSON in the meshing plane: lon/lat ones
+    projected as the region is, lines split at ``densify``); a 422 at ``at/i`` for one the
+    engine refuses, and at ``at`` when their vertices and the boundary's (``vertices``) pass
+    ``limit``."""
     out = []
     for i, r in enumerate(refinements):
         try:
-            shape = engine.Refinement(r.geometry, r.size).shape()
+            shape = engine.Refinement(r.geometry, r.size, r.growth).shape()
+            plane = _in_plane(mapping(shape), projection, densify, f"{at}/{i}/geometry")
+            shape = engine.Refinement(plane, r.size, r.growth).shape()
         except InvalidRefinement as exc:
             raise Problem(422, str(exc), kind="invalid-input", pointer=f"{at}/{i}") from None
         vertices += int(shapely.get_num_coordinates(shape))
@@ -170,23 +226,24 @@ def checked_refinements(
                 pointer=f"{at}/{i}",
             )
         # Stored as shapely writes it back: plain GeoJSON, never the client's members.
-        out.append({"geometry": orjson.loads(orjson.dumps(mapping(shape))), "size": r.size})
+        kept = {"geometry": orjson.loads(orjson.dumps(mapping(shape))), "size": r.size}
+        out.append(kept if r.growth is None else {**kept, "growth": r.growth})
     return out
 
 
-def checked_constraints(obj: Any, region: engine.Region, planar: bool, at: str) -> dict[str, Any]:
-    """The constraints as a job keeps them: ``geometries`` (plain GeoJSON) and each one's
-    ``names`` (its Feature's ``name``); a 422 at the faulty one when the engine's own checks
-    (kind of geometry, inside the region) refuse it."""
+def checked_constraints(
+    obj: Any,
+    region: engine.Region,
+    projection: Projection | None,
+    at: str,
+    densify: float | None = None,
+) -> dict[str, Any]:
+    """The constraints as a job keeps them: ``geometries`` (plain GeoJSON in the meshing plane
+    of ``region``: lon/lat ones projected as the region is, lines split at ``densify``) and
+    each one's ``names`` (its Feature's ``name``); a 422 at the faulty one when the engine's own
+    checks (kind of geometry, inside the region, which may be subdomains) refuse it."""
     if obj is None:
         return {"geometries": [], "names": []}
-    if not planar:
-        raise Problem(
-            422,
-            "constraints need planar coordinates and one region (no subdomains)",
-            kind="invalid-input",
-            pointer=at,
-        )
     if isinstance(obj, dict) and obj.get("type") == "FeatureCollection":
         feats = obj.get("features")
         items = [
@@ -208,10 +265,29 @@ def checked_constraints(obj: Any, region: engine.Region, planar: bool, at: str) 
             geoms.append(item)
             names.append(None)
             pointers.append(ptr)
+    plane = []
+    rings = shapely.union_all([p.to_shapely().boundary for p in region.parts])
+    for g, ptr in zip(geoms, pointers, strict=True):
+        try:
+            shape = shapely.geometry.shape(
+                _in_plane(mapping(shapely.geometry.shape(g)), projection, densify, ptr)
+            )
+        except (AttributeError, KeyError, TypeError, ValueError, shapely.errors.ShapelyError):
+            plane.append(g)  # not a geometry: the engine's check below names it
+            continue
+        if projection is not None and projection.geographic:
+            # A lon/lat position on a ring's edge lands off its chord in the plane by a
+            # fraction of a metre: put it on the ring, as it was in the input.
+            shape = snap_vertices(
+                shape,
+                rings,
+                _SNAP
+                * max(region.bounds[2] - region.bounds[0], region.bounds[3] - region.bounds[1]),
+            )
+        plane.append(mapping(shape))
     try:
         # The engine's own checks, cheap next to meshing: refused now, not in the worker.
-        shapes = constraint_geometries(geoms)
-        check_inside(shapes, region)
+        shapes = engine.check_constraints(plane, region)
     except engine.InvalidConstraint as exc:
         where = pointers[exc.index] if exc.index < len(pointers) else at
         raise Problem(422, str(exc), kind="invalid-input", pointer=where) from None
@@ -229,46 +305,67 @@ def run_mesh(
 ) -> tuple[engine.Result, engine.MeshTags]:
     """A ``mesh`` job's engine run, with its constraints when it has some, and its tags."""
     constraints = payload.get("constraints") or {}
+    geoms, names = constraints.get("geometries") or [], constraints.get("names") or []
+    # The stored parts are in the meshing plane, and the named runs in its numbering.
+    tagging = tagging_of(payload.get("tagging"), payload["parts"])
+    # With resample, the ends of named runs stay ring vertices and the runs are mapped onto
+    # the resampled rings.
+    ends = np.asarray([np.asarray(r.path)[k] for r in tagging.runs for k in (0, -1)])
+    lines: dict[str, Any] = {}
+    pinned = np.empty(0, dtype=np.int64)
+    boundary: engine.Resampled | None = None
     if payload.get("subdomains"):
-        sub = engine.mesh_subdomains(payload["parts"], params, payload["subdomains"]["sizes"], rng)
+        sizes = payload["subdomains"]["sizes"]
+        sub = engine.mesh_subdomains(
+            payload["parts"], params, sizes, rng, geoms, progress, should_stop
+        )
         result, region = sub.result, sub.region
-        lines, pinned = {}, np.empty(0, dtype=np.int64)
-    elif constraints.get("geometries"):
-        out = engine.mesh_with_constraints(region, params, constraints["geometries"], rng)
-        lines, pinned = out.lines(constraints["names"]), out.nodes
-        result = out.result
+        if sub.constraints is not None:
+            lines, pinned = sub.constraints.lines(names), sub.constraints.nodes
+    elif geoms:
+        out = engine.mesh_with_constraints(
+            region, params, geoms, rng, progress, should_stop, keep=ends.reshape(-1, 2)
+        )
+        lines, pinned = out.lines(names), out.nodes
+        result, boundary = out.result, out.boundary
+    elif params.sizing.resample and tagging.runs:
+        boundary = engine.resample_region(region, params.sizing, keep=ends)
+        sizing = replace(params.sizing, resample=False)
+        result = engine.mesh_then_smooth(
+            boundary.region, replace(params, sizing=sizing), rng, progress, should_stop
+        )
+        result.smoothed.summary["boundary"] = boundary.summary()
     else:
         result = engine.mesh_then_smooth(
             region, params, rng, progress=progress, should_stop=should_stop
         )
-        lines, pinned = {}, np.empty(0, dtype=np.int64)
-    # The stored parts are in the meshing plane; named runs are only stored for planar and
-    # projected input, whose plane keeps the input's vertices one for one.
-    tagging = tagging_of(payload.get("tagging"), payload["parts"])
+    if boundary is not None:
+        region = boundary.region
+        runs = [engine.TagRun(r.name, boundary.map_path(r.path)) for r in tagging.runs]
+        tagging = engine.Tagging(tagging.names, runs)
     return result, engine.tag_mesh(result.smoothed.mesh, region, tagging, lines, pinned)
 
 
-def local_payload(boundary: Any, parsed: ParsedRegion, inputs: Mapping[str, Any]) -> dict[str, Any]:
+def local_payload(
+    boundary: Any, parsed: ParsedRegion, inputs: Mapping[str, Any], size: float | None = None
+) -> dict[str, Any]:
     """What :func:`run_mesh` needs besides the parameters, for the command line: the stored
-    tagging, refinements and constraints of ``inputs``; ``ValueError`` naming the faulty one."""
-    planar = parsed.projection is None or not parsed.projection.geographic
+    tagging, refinements and constraints of ``inputs`` (lon/lat ones projected as the region,
+    their lines split at ``size``); ``ValueError`` naming the faulty one."""
+    projection = parsed.projection
+    densify = size if projection is not None and projection.geographic else None
     try:
         given = [RefinementInput.model_validate(r) for r in inputs.get("refinements", [])]
         refinements = checked_refinements(
-            given, planar, parsed.region.n_vertices, 10**9, "/refinements"
+            given, projection, parsed.region.n_vertices, 10**9, "/refinements", densify
         )
-        tagging = stored_tagging(boundary, parsed, "")
-        if not planar and tagging["features"]:
-            raise ValueError(
-                "named runs of a ring (properties.tags) need planar or projected coordinates"
-            )
         return {
             "parts": parsed.parts,
             "crs": parsed.crs(),
-            "tagging": tagging,
+            "tagging": stored_tagging(boundary, parsed, ""),
             "refinements": refinements,
             "constraints": checked_constraints(
-                inputs.get("constraints"), parsed.region, planar, "/constraints"
+                inputs.get("constraints"), parsed.region, projection, "/constraints", densify
             ),
         }
     except Problem as exc:
@@ -296,13 +393,14 @@ def _pieces(boundary: Any, at: str) -> list[tuple[Any, str, Any]]:
 
 
 def subdomains_of(
-    boundary: Any, at: str, has_crs: bool, error: engine.InvalidBoundary
+    boundary: Any, at: str, crs: str | None, error: engine.InvalidBoundary
 ) -> tuple[ParsedRegion, list[float | None]]:
     """``boundary`` as subdomains (polygons sharing edges, interiors apart) and each one's own
     ``h``; re-raises ``error`` (the whole region's) when it is not that case, and a located
-    422 for polygons that overlap."""
+    422 for polygons that overlap. With a ``crs`` the polygons are projected together (one
+    plane, so shared vertices stay shared; lon/lat edges are not split at the size)."""
     pieces = _pieces(boundary, at)
-    if has_crs or len(pieces) < 2:  # subdomains are meshed in planar coordinates only
+    if len(pieces) < 2:
         raise error
     parsed = [parse_region(obj, pointer=ptr) for obj, ptr, _ in pieces]
     shapes = [p.region.to_shapely() for p in parsed]
@@ -324,14 +422,15 @@ def subdomains_of(
         float(h) if isinstance(h, int | float) and not isinstance(h, bool) and h > 0 else None
         for _, _, h in pieces
     ]
-    region = engine.Region(tuple(part for p in parsed for part in p.region.parts))
-    whole = ParsedRegion(
-        region,
-        [part for p in parsed for part in p.parts],
-        tuple(ptrs for p in parsed for ptrs in p.ring_pointers),
-        parsed[0].properties,
-    )
-    return whole, hs
+    parts = [part for p in parsed for part in p.parts]
+    projection = None
+    if crs is not None:
+        projection = project_rings(parts, crs)
+        parts = [(o.tolist(), [h.tolist() for h in hs]) for o, hs in projection.parts]
+    # Put together unchecked: the parts touch, which engine.make_region refuses.
+    region = engine.Region(tuple(engine.make_region([part]).parts[0] for part in parts))
+    pointers = tuple(ptrs for p in parsed for ptrs in p.ring_pointers)
+    return ParsedRegion(region, parts, pointers, parsed[0].properties, projection), hs
 
 
 def estimate_subdomains(
@@ -350,10 +449,10 @@ def job_region(payload: dict[str, Any]) -> tuple[engine.Region, dict[str, Any] |
     together unchecked (they touch, which :func:`engine.make_region` refuses) as
     :func:`run_mesh` nodes them. Jobs stored before the ``crs`` input keep lon/lat rings under
     ``coordinates: "wgs84"``: those are projected here."""
+    crs = payload.get("crs")
     if payload.get("subdomains"):
         parts = [engine.make_region([part]).parts[0] for part in payload["parts"]]
-        return engine.Region(tuple(parts)), None
-    crs = payload.get("crs")
+        return engine.Region(tuple(parts)), crs
     if crs is None and payload.get("coordinates") == "wgs84":
         projection = project_rings(payload["parts"], "OGC:CRS84")
         payload["parts"] = [(o.tolist(), [h.tolist() for h in hs]) for o, hs in projection.parts]

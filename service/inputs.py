@@ -189,7 +189,7 @@ MAX_REFINEMENTS = 1000
 
 
 class RefinementInput(BaseModel):
-    """A local size: ``size`` on and near ``geometry``."""
+    """A local size: ``size`` on and near ``geometry``, growing away at ``growth``."""
 
     model_config = STRICT
 
@@ -197,6 +197,12 @@ class RefinementInput(BaseModel):
         description="a GeoJSON Point, LineString, Polygon, their Multi* forms or a collection"
     )
     size: float = Field(gt=0, description="the edge length asked for on the geometry")
+    growth: float | None = Field(
+        None,
+        gt=1,
+        le=100,
+        description="largest neighbour size ratio away from the geometry; default the job's",
+    )
 
 
 Index = Annotated[int, Field(ge=0, le=2**31 - 1)]

@@ -1,6 +1,7 @@
 """The mesh-control flags of ``evomesh mesh`` (local and remote): refinements and constraints.
 
-``--refine JSON`` (repeatable) adds one ``{"geometry": ..., "size": s}``; ``--refinements FILE``
+``--refine JSON`` (repeatable) adds one ``{"geometry": ..., "size": s}`` (with an optional
+``"growth"`` of its own); ``--refinements FILE``
 reads a list of them; ``--constraints FILE`` reads a GeoJSON geometry or FeatureCollection of
 (Multi)LineStrings and (Multi)Points. Boundary tags come with the region file itself
 (``properties.name`` and ``properties.tags``). ``--resample`` (and ``--resample-tolerance``)
@@ -25,7 +26,8 @@ def add_control_flags(p: argparse.ArgumentParser | Any) -> None:
         action="append",
         default=[],
         metavar="JSON",
-        help='a local size, {"geometry": <GeoJSON geometry>, "size": s} (repeatable)',
+        help='a local size, {"geometry": <GeoJSON geometry>, "size": s} with an optional'
+        ' "growth" (default the job\'s) (repeatable)',
     )
     p.add_argument("--refinements", metavar="FILE", help="a JSON list of refinements")
     p.add_argument(

@@ -118,9 +118,9 @@ class MeshInputs(BaseModel):
         max_length=MAX_REFINEMENTS,
         description=(
             "local sizes: the size near each geometry is its `size`, growing away from it at"
-            " `growth` (inside a Polygon: `size`); combined with the region's sizing by the"
-            " minimum. Coordinates as the boundary's (planar only); their vertices count"
-            " against the boundary-vertex limit"
+            " its own `growth` (default the job's; inside a Polygon: `size`); combined with the"
+            " region's sizing and each other by the minimum. Coordinates as the boundary's"
+            " (metres for lon/lat); their vertices count against the boundary-vertex limit"
         ),
     )
     constraints: Any = Field(
@@ -128,7 +128,8 @@ class MeshInputs(BaseModel):
         description=(
             "a GeoJSON geometry or FeatureCollection of (Multi)LineStrings and (Multi)Points"
             " inside the region: lines become chains of mesh edges tagged with their Feature's"
-            " `name`, points become mesh nodes; neither moves nor is swapped away (planar only)"
+            " `name`, points become mesh nodes; neither moves nor is swapped away. In the"
+            " boundary's coordinates (lon/lat for geographic input); with subdomains too"
         ),
     )
     resample: bool = Field(
@@ -309,11 +310,8 @@ def _region(inputs: MeshInputs, where: Where) -> tuple[ParsedRegion, list[float 
     try:
         return _parse(inputs, where), None
     except engine.InvalidBoundary as exc:  # polygons sharing edges are subdomains
-        try:
-            has_crs = region_crs(inputs.boundary, inputs.crs, inputs.coordinates) is not None
-        except GeoError:
-            has_crs = True
-        return subdomains_of(inputs.boundary, where("boundary"), has_crs, exc)
+        crs = region_crs(inputs.boundary, inputs.crs, inputs.coordinates)
+        return subdomains_of(inputs.boundary, where("boundary"), crs, exc)
 
 
 def prepare(inputs: MeshInputs, settings: Settings, where: Where) -> tuple[MeshRequest, int]:
@@ -324,16 +322,19 @@ def prepare(inputs: MeshInputs, settings: Settings, where: Where) -> tuple[MeshR
     check_limit(rings, settings.max_rings, "the number of rings", at)
     check_limit(vertices, settings.max_vertices, "the number of boundary vertices", at)
     parsed, sizes = _region(inputs, where)
-    # Refinements, constraints and named runs of a ring are given in the coordinates that are
-    # meshed: planar input, or a projected CRS (meshed in its own coordinates).
+    # Refinements, constraints and named runs are given in the input CRS and meshed as the
+    # region is (lon/lat: projected, sizes in metres).
     geographic = parsed.projection is not None and parsed.projection.geographic
     sizing = _sizing(inputs, parsed, where)
+    # Lon/lat lines are straight in lon/lat (RFC 7946): split at the size to follow them.
+    densify = sizing.size if geographic else None
     refinements = checked_refinements(
         inputs.refinements,
-        not geographic,
+        parsed.projection,
         parsed.region.n_vertices,
         settings.max_vertices,
         where("refinements"),
+        densify,
     )
     sizing = replace(sizing, refinements=refinements_of(refinements))
     smoothing, seed = smoothing_params(inputs.smoothing, where)
@@ -344,19 +345,11 @@ def prepare(inputs: MeshInputs, settings: Settings, where: Where) -> tuple[MeshR
             parsed, sizes, sizing, settings.max_triangles, where("size")
         )
     check_ga_work(smoothing, triangles, settings, where)
-    tagging = stored_tagging(inputs.boundary, parsed, at)
-    if geographic and tagging["features"]:
-        raise Problem(
-            422,
-            "named runs of a ring (properties.tags) need planar or projected coordinates; "
-            "a lon/lat boundary gets the default outer / hole-K tags",
-            kind="invalid-input",
-            pointer=at,
-        )
-    if geographic:
+    if geographic and sizes is None:
         # Lon/lat edges are straight in lon/lat (RFC 7946): split them at the size so the
         # meshed boundary follows them (sizes were checked first, so this stays small).
         parsed = _parse(inputs, where, densify=sizing.size)
+    tagging = stored_tagging(inputs.boundary, parsed, at)  # renumbered as the densified rings
     request = MeshRequest(
         parts=parsed.parts,
         crs=parsed.crs(),
@@ -368,10 +361,7 @@ def prepare(inputs: MeshInputs, settings: Settings, where: Where) -> tuple[MeshR
         tagging=tagging,
         refinements=refinements,
         constraints=checked_constraints(
-            inputs.constraints,
-            parsed.region,
-            not geographic and sizes is None,
-            where("constraints"),
+            inputs.constraints, parsed.region, parsed.projection, where("constraints"), densify
         ),
         subdomains=None if sizes is None else {"sizes": sizes},
     )

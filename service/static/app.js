@@ -9,6 +9,7 @@ import {
 } from "./geo.js";
 import { FINAL, JobList, stageLabel, watchJob } from "./jobs.js";
 import { ColourRange, readoutText, renderTagLegend } from "./legend.js";
+import { controlOf, renderLayerToggles } from "./control.js";
 import { METRICS, colorRange, meshesOf, namesById } from "./meshdata.js";
 import { ParamsForm } from "./params.js";
 import { EXAMPLES, estimateTriangles, parseRegion, regionStats, suggestSize } from "./region.js";
@@ -352,6 +353,8 @@ async function openResult(id) {
   state.timings.fetchMs = t1 - t0;
   state.timings.prepareMs = t2 - t1;
   showJob({ id, doc, meshes, display });
+  view.setControl(controlOf(id, doc, display));
+  renderLayerToggles($("legend-layers"), view);
   view.render(true);
   state.timings.firstFrameMs = performance.now() - t2;
   document.body.dataset.rendered = id;

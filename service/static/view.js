@@ -4,6 +4,7 @@
 
 import { WORST } from "./colormap.js";
 import { Canvas2DRenderer } from "./canvas2d.js";
+import { LAYERS, drawGeometry } from "./control.js";
 import { GLRenderer } from "./gl.js";
 
 const CLICK_SLOP = 4; // pixels a press may move and still be a click
@@ -45,6 +46,9 @@ export class MeshView extends EventTarget {
     this.showEdges = true;
     this.showWorst = true;
     this.tool = null;     // the drawing tool, when active
+    this.control = null;  // the job's {refinements, constraints} (control.js), drawn as layers
+    this.layers = { refinements: true, constraints: true };
+    this.controlDrawn = { refinements: 0, constraints: 0 }; // shapes drawn last frame
     this.lastFrameMs = 0;
     this._pending = false;
     this._pointers = new Map();
@@ -188,6 +192,42 @@ export class MeshView extends EventTarget {
     }
   }
 
+  /** The job's mesh control to draw over its mesh (null: none). */
+  setControl(control) {
+    this.control = control;
+    this._drawOverlay();
+  }
+
+  /** Show or hide one layer of the mesh control. */
+  setLayer(name, on) {
+    this.layers[name] = on;
+    this._drawOverlay();
+  }
+
+  _drawControl(ctx) {
+    const toScreen = (x, y) => this.toScreen(x, y);
+    this.controlDrawn = { refinements: 0, constraints: 0 };
+    if (!this.control) return;
+    ctx.save();
+    ctx.lineWidth = 2;
+    if (this.layers.refinements) {
+      ctx.strokeStyle = LAYERS.refinements.color;
+      ctx.setLineDash([6, 4]);
+      for (const r of this.control.refinements) {
+        this.controlDrawn.refinements += drawGeometry(ctx, r.geometry, toScreen, 7);
+      }
+    }
+    ctx.setLineDash([]);
+    if (this.layers.constraints) {
+      ctx.strokeStyle = LAYERS.constraints.color;
+      ctx.lineWidth = 3;
+      for (const g of this.control.constraints) {
+        this.controlDrawn.constraints += drawGeometry(ctx, g, toScreen, 5);
+      }
+    }
+    ctx.restore();
+  }
+
   _drawOverlay() {
     const ctx = this.octx;
     ctx.setTransform(this.dpr, 0, 0, this.dpr, 0, 0);
@@ -203,6 +243,7 @@ export class MeshView extends EventTarget {
       ctx.stroke();
     }
     if (this.mesh && this.mesh.lines) this._drawLines(ctx);
+    if (this.mesh) this._drawControl(ctx);
     if (this.mesh && this.showWorst) this._drawWorst(ctx);
     if (this.mesh && this.hover >= 0) {
       this._triangle(ctx, this.hover);

@@ -105,7 +105,11 @@ def test_random_regions_refinements_and_constraints_stay_valid_and_keep_them(
             assume(region.to_shapely().covers(shapely.LineString([a, b])))
             cs.append(line(a, b))
     refine = tuple(
-        Refinement(point(*data.draw(inside(region))), data.draw(st.floats(0.1, 0.5)) * size)
+        Refinement(
+            point(*data.draw(inside(region))),
+            data.draw(st.floats(0.1, 0.5)) * size,
+            data.draw(st.none() | st.floats(1.05, 2.0)),
+        )
         for _ in range(data.draw(st.integers(0, 2)))
     )
     params = PipelineParams(

@@ -1,5 +1,5 @@
-"""Refinements (engine.refinement): size s on a geometry, growing away at the job's rate,
-combined with the region's own sizing by the minimum; meshes stay valid and conforming."""
+"""Refinements (engine.refinement): size s on a geometry, growing away at the job's rate or
+its own, combined with the region's own sizing by the minimum; meshes stay valid and conforming."""
 
 from __future__ import annotations
 
@@ -68,13 +68,41 @@ def test_a_point_refinement_makes_small_triangles_near_it_only() -> None:
     assert mesh.n_triangles > plain.n_triangles + 100
 
 
+@pytest.mark.parametrize("own", [1.05, 1.6])
+def test_a_refinement_grows_at_its_own_rate(own: float) -> None:
+    s, job = 0.02, 1.2
+    field = _field(Refinement(POINT, s, growth=own), growth=job)
+    xy = np.random.default_rng(3).uniform(0, 2, (2000, 2))
+    d = np.hypot(*(xy - 1.0).T)
+    h = field(xy)
+    assert np.all(h <= np.minimum(0.2, 1.05 * (s + (own - 1) * (d + s / 4))) + 1e-12)
+    assert np.all(h >= np.minimum(0.2, s + (own - 1) * (d - 0.01 * s)) - 1e-12)
+    # At the job's rate the field differs wherever it is below the region's size.
+    ring = np.c_[1 + 0.3 * np.cos(np.arange(8)), 1 + 0.3 * np.sin(np.arange(8))]
+    assert not np.allclose(field(ring), _field(Refinement(POINT, s), growth=job)(ring))
+
+
+def test_refinements_growing_at_different_rates_combine_by_the_minimum() -> None:
+    slow = Refinement(POINT, 0.02, growth=1.05)
+    fast = Refinement(LINE, 0.01, growth=1.8)
+    xy = np.random.default_rng(4).uniform(0, 2, (1500, 2))
+    both = _field(slow, fast)(xy)
+    assert np.allclose(both, np.minimum(_field(slow)(xy), _field(fast)(xy)), rtol=0.011)
+
+
 @pytest.mark.parametrize(
-    ("geometry", "size"),
-    [({"type": "Point"}, 0.1), ({"type": "Spiral", "coordinates": []}, 0.1), (POINT, 0.0)],
+    ("geometry", "size", "growth"),
+    [
+        ({"type": "Point"}, 0.1, None),
+        ({"type": "Spiral", "coordinates": []}, 0.1, None),
+        (POINT, 0.0, None),
+        (POINT, 0.1, 1.0),
+        (POINT, 0.1, float("nan")),
+    ],
 )
-def test_bad_refinements_are_typed_errors(geometry: dict, size: float) -> None:
+def test_bad_refinements_are_typed_errors(geometry: dict, size: float, growth: float) -> None:
     with pytest.raises(InvalidRefinement, match="a refinement's"):
-        Refinement(geometry, size)
+        Refinement(geometry, size, growth)
 
 
 @st.composite
@@ -90,7 +118,8 @@ def refinements(draw: st.DrawFn, bounds: tuple[float, float, float, float]) -> R
     else:
         c, r = draw(coord), draw(st.floats(0.02, 0.2)) * span
         geometry = shapely.geometry.mapping(shapely.Point(c).buffer(r, 4))
-    return Refinement(geometry, draw(st.floats(0.02, 0.2)) * span)
+    growth = draw(st.none() | st.floats(1.05, 2.0))
+    return Refinement(geometry, draw(st.floats(0.02, 0.2)) * span, growth)
 
 
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])

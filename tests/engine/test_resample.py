@@ -109,3 +109,35 @@ def test_resampled_rings_stay_valid_and_within_tolerance(case: tuple[Region, flo
     assert out.max_deviation <= tolerance + 1e-12
     assert _deviation(region, out.region) <= tolerance + 1e-12
     assert abs(out.max_deviation - _deviation(region, out.region)) <= 1e-9
+
+
+def test_digitised_constraint_lines_are_resampled_with_the_rings() -> None:
+    """A noisy rectangle with a digitised constraint line from a ring vertex into the region:
+    the line keeps its ends and corner, stays within the tolerance and is split at the size."""
+    from engine import mesh_with_constraints
+    from engine.mesh import edge_table
+
+    region = _noisy_rectangle(100.0, 60.0, 0.3, 0.05)
+    start = region.rings[0][len(region.rings[0]) // 8]  # a vertex of the southern side
+    rng = np.random.default_rng(3)
+    t = np.linspace(0.0, 1.0, 400)
+    leg1 = np.c_[start[0] + 0 * t, start[1] + 30 * t]  # north, then east: a corner at the turn
+    leg2 = np.c_[start[0] + 40 * t[1:], start[1] + 30 + 0 * t[1:]]
+    path = np.concatenate([leg1, leg2])
+    path[1:-1] += rng.uniform(-0.05, 0.05, (len(path) - 2, 2))
+    path[len(leg1) - 1] = [start[0], start[1] + 30]  # the corner exactly
+    line = {"type": "LineString", "coordinates": path.tolist()}
+    params = PipelineParams(SizingParams(10.0, resample=True), smoothing=SmoothingParams("none"))
+    out = mesh_with_constraints(region, params, [line])
+    mesh = out.result.smoothed.mesh
+    boundary = out.result.smoothed.summary["boundary"]
+    assert boundary["max_deviation"] <= boundary["tolerance"] <= 1.0
+    assert 0 < boundary["constraints_max_deviation"] <= boundary["tolerance"]
+    for p in (start, path[len(leg1) - 1], path[-1]):  # ends and corner are mesh nodes
+        assert np.hypot(*(mesh.points - p).T).min() < 1e-9
+    assert 7 <= len(out.edges) <= 12  # 70 long at size 10, not 800 digitised pieces
+    have = {tuple(e) for e in edge_table(mesh.triangles)[0].tolist()}
+    assert all(tuple(sorted(e)) in have for e in out.edges.tolist())
+    assert mesh.n_triangles < 300
+    assert out.region is not None
+    assert out.region.n_vertices < 20

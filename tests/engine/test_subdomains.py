@@ -120,3 +120,139 @@ def test_the_same_seed_gives_the_same_subdomain_mesh() -> None:
     )
     assert np.array_equal(a.result.smoothed.mesh.points, b.result.smoothed.mesh.points)
     assert np.array_equal(a.triangle_region, b.triangle_region)
+
+
+def _constraints_kept(sub, constraints) -> None:  # type: ignore[no-untyped-def]
+    """Every constraint edge is a mesh edge, every constraint vertex a node, none moved."""
+    mesh = sub.result.smoothed.mesh
+    held = sub.constraints
+    have = {tuple(e) for e in edge_table(mesh.triangles)[0].tolist()}
+    assert all(tuple(sorted(e)) in have for e in held.edges.tolist())
+    lines = [shapely.geometry.shape(c) for c in constraints if "Line" in c["type"]]
+    length = np.linalg.norm(np.diff(mesh.points[held.edges], axis=1)[:, 0], axis=1).sum()
+    assert np.isclose(length, shapely.union_all(lines).length if lines else 0.0)
+    for c in constraints:
+        for p in shapely.get_coordinates(shapely.geometry.shape(c)):
+            assert np.hypot(*(mesh.points - p).T).min() < 1e-9
+    first = sub.result.initial.mesh
+    assert np.array_equal(first.points[held.nodes], mesh.points[held.nodes])
+
+
+def test_constraints_inside_and_across_subdomains_are_kept() -> None:
+    cs = [
+        {"type": "LineString", "coordinates": [[0.3, 0.3], [1.6, 0.9], [1.7, 1.3]]},
+        {"type": "LineString", "coordinates": [[0.2, 0.8], [0.6, 0.7]]},
+        {"type": "Point", "coordinates": [1.5, 0.7]},
+        {"type": "MultiPoint", "coordinates": [[0.4, 0.15], [0.75, 0.5]]},
+    ]
+    sub = mesh_subdomains([LEFT, RIGHT], _params("ga"), [0.2, 0.1], constraints=cs)
+    _check(sub, [shapely.Polygon(LEFT[0]), shapely.Polygon(RIGHT[0])])
+    _constraints_kept(sub, cs)
+    # The line crossing the interface at x = 1 meets it at a node of both.
+    mesh = sub.result.smoothed.mesh
+    assert np.hypot(*(mesh.points - [1.0, 0.3 + 0.6 * 0.7 / 1.3]).T).min() < 1e-9
+    assert set(sub.constraints.edge_constraint.tolist()) == {0, 1}
+    tags = tag_mesh(mesh, sub.region, lines=sub.constraints.lines(["fault"]))
+    assert "fault" in tags.tags
+    assert "constraint-1" in tags.tags
+
+
+def test_a_constraint_leaving_the_subdomains_is_a_located_error() -> None:
+    from engine.constraints import InvalidConstraint
+
+    outside = {"type": "LineString", "coordinates": [[0.5, 0.5], [1.5, 0.2]]}  # below RIGHT
+    with pytest.raises(InvalidConstraint, match="constraint 0 leaves the region") as err:
+        mesh_subdomains([LEFT, RIGHT], _params(), constraints=[outside])
+    assert err.value.location is not None
+
+
+def test_subdomain_meshing_reports_monotone_progress_and_can_be_cancelled() -> None:
+    from engine.errors import Cancelled
+
+    seen: list[tuple[str, float]] = []
+    mesh_subdomains(
+        [LEFT, RIGHT], _params("laplacian"), [0.2, 0.1], progress=lambda s, f: seen.append((s, f))
+    )
+    stages = [s for s, _ in seen]
+    assert stages[0] == "boundary"
+    assert {"mesh", "swap", "smooth"} <= set(stages)
+    order = ["boundary", "mesh", "swap", "smooth"]
+    ranks = [order.index(s) for s in stages if s in order]
+    assert ranks == sorted(ranks)
+    meshed = [f for s, f in seen if s == "mesh"]
+    assert meshed == sorted(meshed)
+    assert meshed[-1] == 1.0
+    assert len(meshed) >= 3
+    calls = 0
+
+    def stop() -> bool:
+        nonlocal calls
+        calls += 1
+        return calls > 1  # the first poll passes; the next (a later stage) stops
+
+    with pytest.raises(Cancelled):
+        mesh_subdomains([LEFT, RIGHT], _params(), [0.2, 0.1], should_stop=stop)
+    assert calls >= 2
+
+
+@settings(
+    max_examples=12,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much],
+)
+@given(
+    cuts=st.lists(st.sampled_from([0.25, 0.5, 0.75]), min_size=1, max_size=3, unique=True),
+    kinks=st.lists(st.floats(-0.08, 0.08), min_size=3, max_size=3),
+    sizes=st.lists(st.sampled_from([None, 0.07, 0.15]), min_size=4, max_size=4),
+    data=st.data(),
+)
+def test_random_subdomains_with_constraints_and_refinements_conform_and_keep_them(
+    cuts: list[float], kinks: list[float], sizes: list[float | None], data: st.DataObject
+) -> None:
+    """Strips with kinked interfaces, random constraint lines and points (crossing interfaces
+    and each other) and random point refinements growing at their own rates."""
+    from hypothesis import assume
+
+    from engine.constraints import InvalidConstraint
+    from engine.refinement import Refinement
+
+    lines = [[[0.0, 0.0], [0.0, 1.0]]]
+    lines += [[[x, 0.0], [x + k, 0.5], [x, 1.0]] for x, k in zip(sorted(cuts), kinks, strict=False)]
+    lines += [[[1.0, 0.0], [1.0, 1.0]]]
+    parts = [([*a, *b[::-1]], []) for a, b in itertools.pairwise(lines)]
+    coord = st.tuples(st.floats(0.05, 0.95), st.floats(0.05, 0.95)).map(list)
+    cs = []
+    for _ in range(data.draw(st.integers(1, 3))):
+        if data.draw(st.booleans()):
+            cs.append({"type": "Point", "coordinates": data.draw(coord)})
+        else:
+            cs.append({"type": "LineString", "coordinates": [data.draw(coord), data.draw(coord)]})
+    refine = tuple(
+        Refinement(
+            {"type": "Point", "coordinates": data.draw(coord)},
+            data.draw(st.sampled_from([0.03, 0.05])),
+            data.draw(st.none() | st.floats(1.1, 1.5)),
+        )
+        for _ in range(data.draw(st.integers(0, 2)))
+    )
+    params = PipelineParams(
+        SizingParams(0.2, refinements=refine), smoothing=SmoothingParams("laplacian")
+    )
+    try:
+        sub = mesh_subdomains(parts, params, sizes[: len(parts)], constraints=cs)
+    except InvalidConstraint:  # nearly touching pieces: refused by design
+        assume(False)
+        raise
+    _check(sub, [shapely.Polygon(p[0]) for p in parts])
+    _constraints_kept(sub, cs)
+
+
+def test_a_line_crossing_an_interface_at_one_of_its_nodes_meets_it_there() -> None:
+    """The interface x = 1 is split at 0.1 steps; the line crosses it at (1, 0.5), which
+    rounding puts a hair away from the split node: the two are one node, not a near miss."""
+    left = ([[0, 0], [1, 0], [1, 1], [0, 1]], [])
+    right = ([[1, 0], [2, 0], [2, 1], [1, 1]], [])
+    cs = [{"type": "LineString", "coordinates": [[0.3, 0.2], [1.7, 0.8]]}]
+    sub = mesh_subdomains([left, right], _params(), [None, 0.1], constraints=cs)
+    _check(sub, [shapely.Polygon(left[0]), shapely.Polygon(right[0])])
+    _constraints_kept(sub, cs)

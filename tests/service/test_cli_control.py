@@ -63,3 +63,34 @@ def test_the_flags_become_service_inputs(tmp_path: Path) -> None:
     args = p.parse_args(["--refine", point, "--constraints", str(dam)])
     assert control_inputs(args) == {"refinements": [json.loads(point)], "constraints": DAM}
     assert control_inputs(p.parse_args([])) == {}
+
+
+def test_local_refinement_growth_and_lon_lat_control(tmp_path: Path) -> None:
+    """``--refine`` takes a growth of its own; lon/lat regions take lon/lat refinements and
+    constraints (sizes in metres) and the result comes back in lon/lat."""
+    region = tmp_path / "box.geojson"
+    box = [[14.0, 60.0], [14.2, 60.0], [14.2, 60.1], [14.0, 60.1], [14.0, 60.0]]
+    region.write_text(json.dumps({"type": "Polygon", "coordinates": [box]}))
+    line = {"type": "LineString", "coordinates": [[14.05, 60.05], [14.15, 60.05]]}
+    dam = tmp_path / "dam.geojson"
+    dam.write_text(json.dumps({"type": "Feature", "properties": {"name": "dam"}, "geometry": line}))
+    counts = []
+    for growth in ("", ', "growth": 1.05'):
+        refine = (
+            '{"geometry": {"type": "Point", "coordinates": [14.1, 60.02]}, "size": 150'
+            + growth
+            + "}"
+        )
+        out = tmp_path / f"box{len(counts)}.json"
+        args = ["mesh", str(region), "--crs", "EPSG:4326", "--size", "1500", "--smooth", "none"]
+        assert main([*args, "--refine", refine, "--constraints", str(dam), "-o", str(out)]) == 0
+        doc = json.loads(out.read_text())
+        counts.append(len(doc["triangles"]))
+        pts = np.asarray(doc["points"])
+        assert pts[:, 0].min() >= 14.0 - 1e-7
+        assert pts[:, 0].max() <= 14.2 + 1e-7
+        dam_edges = np.asarray(doc["lines"])[
+            np.asarray(doc["line_data"]["tag"]) == doc["tags"]["dam"]
+        ]
+        assert np.allclose(pts[dam_edges][..., 1], 60.05, atol=1e-4)  # the line, in lon/lat
+    assert counts[1] > 1.5 * counts[0]  # the slower-growing refinement reaches further

@@ -150,7 +150,7 @@ async def test_each_feature_of_a_collection_names_its_region(client: httpx.Async
 async def _result(client: httpx.AsyncClient, inputs: dict[str, Any]) -> dict[str, Any]:
     job = await submit(client, "mesh", inputs)
     status = await wait_for(client, job["jobID"])
-    assert status["status"] == "successful", status
+    assert status["status"] == "successful", status.get("message")
     doc: dict[str, Any] = (await client.get(f"/jobs/{job['jobID']}/results")).json()
     return doc
 
@@ -297,3 +297,207 @@ async def test_overlapping_polygons_stay_a_located_422(client: httpx.AsyncClient
         client, {"boundary": _pair(None, shift=0.5), "size": 0.25, "smoothing": NONE}
     )
     assert_problem(r, 422, pointer="/inputs/boundary/features/1")
+
+
+async def test_a_refinement_grows_at_its_own_rate(client: httpx.AsyncClient) -> None:
+    point = {"type": "Point", "coordinates": [0.5, 0.5]}
+    base = {"boundary": SQUARE, "size": 0.2, "smoothing": NONE}
+    counts = []
+    for growth in (None, 1.05):
+        refinement: dict[str, Any] = {"geometry": point, "size": 0.02}
+        if growth is not None:
+            refinement["growth"] = growth
+        doc = await _result(client, {**base, "refinements": [refinement]})
+        counts.append(len(doc["triangles"]))
+    assert counts[1] > 2 * counts[0]  # growing at 1.05, not the job's 1.2: far more triangles
+    r = await _execute(
+        client, {**base, "refinements": [{"geometry": point, "size": 0.02, "growth": 1}]}
+    )
+    assert_problem(r, 422, pointer="/inputs/refinements/0/growth")
+
+
+async def test_subdomains_take_constraints_in_one_job(client: httpx.AsyncClient) -> None:
+    across = {"type": "LineString", "coordinates": [[0.5, 0.2], [1.5, 0.7]]}
+    fc = {
+        "type": "FeatureCollection",
+        "features": [
+            {"type": "Feature", "properties": {"name": "fault"}, "geometry": across},
+            {
+                "type": "Feature",
+                "properties": {},
+                "geometry": {"type": "Point", "coordinates": [0.3, 0.8]},
+            },
+        ],
+    }
+    doc = await _result(
+        client,
+        {
+            "boundary": _pair(0.1),
+            "size": 0.25,
+            "smoothing": {"method": "laplacian"},
+            "constraints": fc,
+        },
+    )
+    assert doc["regions"] == {"a": 1, "b": 2}
+    assert "fault" in doc["tags"]
+    assert "a|b" in doc["tags"]
+    pts = np.asarray(doc["points"])
+    fault = np.asarray(doc["lines"])[np.asarray(doc["line_data"]["tag"]) == doc["tags"]["fault"]]
+    ends = pts[fault]
+    assert np.allclose(ends[..., 1], 0.2 + 0.5 * (ends[..., 0] - 0.5), atol=1e-9)
+    assert np.isclose(np.hypot(*(ends[:, 1] - ends[:, 0]).T).sum(), np.hypot(1.0, 0.5))
+    assert np.min(np.hypot(*(pts - [1.0, 0.45]).T)) < 1e-9  # noded on the interface
+    assert np.min(np.hypot(*(pts - [0.3, 0.8]).T)) < 1e-12
+    region = np.asarray(doc["cell_data"]["region"])
+    centre = pts[np.asarray(doc["triangles"])].mean(axis=1)
+    assert np.array_equal(region, np.where(centre[:, 0] < 1.0, 1, 2))
+
+
+#: A lon/lat box about 11 km x 11 km at 60 N; control geometries in lon/lat, sizes in metres.
+LONLAT = {
+    "type": "Feature",
+    "properties": {
+        "name": "bay",
+        "tags": [{"name": "shore", "from": 0, "to": 1}],
+    },
+    "geometry": {
+        "type": "Polygon",
+        "coordinates": [[[14.0, 60.0], [14.2, 60.0], [14.2, 60.1], [14.0, 60.1], [14.0, 60.0]]],
+    },
+}
+
+
+async def test_mesh_control_with_lon_lat_input(client: httpx.AsyncClient) -> None:
+    from pyproj import Geod
+
+    dam = {"type": "LineString", "coordinates": [[14.05, 60.03], [14.15, 60.07]]}
+    well = {"type": "Point", "coordinates": [14.1, 60.02]}
+    doc = await _result(
+        client,
+        {
+            "boundary": LONLAT,
+            "crs": "EPSG:4326",
+            "size": 1500,
+            "smoothing": {"method": "laplacian"},
+            "refinements": [{"geometry": well, "size": 150, "growth": 1.3}],
+            "constraints": {
+                "type": "FeatureCollection",
+                "features": [{"type": "Feature", "properties": {"name": "dam"}, "geometry": dam}],
+            },
+        },
+    )
+    pts = np.asarray(doc["points"])  # back in lon/lat
+    assert pts[:, 0].min() >= 14.0 - 1e-7
+    assert pts[:, 0].max() <= 14.2 + 1e-7
+    geod = Geod(ellps="WGS84")
+    edges = np.asarray(doc["lines"])[np.asarray(doc["line_data"]["tag"]) == doc["tags"]["dam"]]
+    a, b = pts[edges[:, 0]], pts[edges[:, 1]]
+    metres = geod.inv(a[:, 0], a[:, 1], b[:, 0], b[:, 1])[2]
+    whole = geod.inv(14.05, 60.03, 14.15, 60.07)[2]
+    assert abs(metres.sum() - whole) < 1e-3 * whole  # the dam, every piece of it, in lon/lat
+    assert metres.max() < 1.3 * 1500
+    # Near the well the edges are about 150 m (refinement in metres), far away about 1500.
+    tri = np.asarray(doc["triangles"])
+    c = pts[tri].mean(axis=1)
+    d = geod.inv(c[:, 0], c[:, 1], np.full(len(c), 14.1), np.full(len(c), 60.02))[2]
+    side = geod.inv(pts[tri[:, 0], 0], pts[tri[:, 0], 1], pts[tri[:, 1], 0], pts[tri[:, 1], 1])[2]
+    assert np.median(side[d < 200]) < 300
+    assert np.median(side[d > 4000]) > 900
+    # The named run from vertex 0 to 1 (the southern edge) is tagged along its whole length.
+    shore = np.asarray(doc["lines"])[np.asarray(doc["line_data"]["tag"]) == doc["tags"]["shore"]]
+    assert np.allclose(pts[shore][..., 1], 60.0, atol=1e-9)
+    south = geod.inv(
+        pts[shore][:, 0, 0], pts[shore][:, 0, 1], pts[shore][:, 1, 0], pts[shore][:, 1, 1]
+    )[2]
+    assert abs(south.sum() - geod.inv(14.0, 60.0, 14.2, 60.0)[2]) < 1.0
+
+
+async def test_lon_lat_subdomains_with_a_constraint(client: httpx.AsyncClient) -> None:
+    west = [[14.0, 60.0], [14.1, 60.0], [14.1, 60.1], [14.0, 60.1], [14.0, 60.0]]
+    east = [[14.1, 60.0], [14.2, 60.0], [14.2, 60.1], [14.1, 60.1], [14.1, 60.0]]
+    fc = {
+        "type": "FeatureCollection",
+        "features": [
+            {
+                "type": "Feature",
+                "properties": {"name": "w"},
+                "geometry": {"type": "Polygon", "coordinates": [west]},
+            },
+            {
+                "type": "Feature",
+                "properties": {"name": "e", "h": 700},
+                "geometry": {"type": "Polygon", "coordinates": [east]},
+            },
+        ],
+    }
+    line = {"type": "LineString", "coordinates": [[14.05, 60.05], [14.15, 60.05]]}
+    doc = await _result(
+        client,
+        {"boundary": fc, "crs": "EPSG:4326", "size": 1500, "smoothing": NONE, "constraints": line},
+    )
+    assert doc["regions"] == {"w": 1, "e": 2}
+    assert doc["crs"]["geographic"] is True
+    pts = np.asarray(doc["points"])
+    region = np.asarray(doc["cell_data"]["region"])
+    centre = pts[np.asarray(doc["triangles"])].mean(axis=1)
+    assert np.array_equal(region, np.where(centre[:, 0] < 14.1, 1, 2))
+    assert (region == 2).sum() > 1.5 * (region == 1).sum()  # e at its own 700 m
+    tag = doc["tags"]["constraint-0"]
+    edges = np.asarray(doc["lines"])[np.asarray(doc["line_data"]["tag"]) == tag]
+    assert np.all(pts[edges][..., 0] >= 14.05 - 1e-9)
+    assert np.min(np.hypot(*(pts - [14.1, 60.05]).T)) < 1e-6
+
+
+def _digitised_duct() -> tuple[dict[str, Any], np.ndarray]:
+    """A 100 x 60 rectangle traced every 0.3 with 0.05 of noise; a run names its western side
+    from its corner (0, 60) down to a vertex half way."""
+    rng = np.random.default_rng(11)
+    corners = np.array([[0, 0], [100, 0], [100, 60], [0, 60]], dtype=float)
+    sides = []
+    for a, b in zip(corners, np.roll(corners, -1, axis=0), strict=True):
+        n = int(np.hypot(*(b - a)) / 0.3)
+        side = a + (np.arange(n) / n)[:, None] * (b - a)
+        side[1:] += rng.uniform(-0.05, 0.05, (n - 1, 2))
+        sides.append(side)
+    ring = np.concatenate(sides)
+    west = len(ring) - len(sides[-1])  # the vertex at (0, 60)
+    half = west + len(sides[-1]) // 2
+    feature = {
+        "type": "Feature",
+        "properties": {"name": "duct", "tags": [{"name": "inlet", "from": west, "to": half}]},
+        "geometry": {"type": "Polygon", "coordinates": [[*ring.tolist(), ring[0].tolist()]]},
+    }
+    return feature, ring[west : half + 1]
+
+
+@pytest.mark.parametrize("constrained", [False, True])
+async def test_named_runs_keep_working_with_resample(
+    client: httpx.AsyncClient, constrained: bool
+) -> None:
+    feature, run = _digitised_duct()
+    inputs: dict[str, Any] = {"boundary": feature, "size": 10, "resample": True, "smoothing": NONE}
+    if constrained:  # the constraints path resamples the rings itself
+        line = {"type": "LineString", "coordinates": [[20.0, 20.0], [50.0, 40.0]]}
+        inputs["constraints"] = line
+    doc = await _result(client, inputs)
+    assert len(doc["triangles"]) < 300  # resampled: not the ~1,000 digitised vertices kept
+    pts = np.asarray(doc["points"])
+    inlet = np.asarray(doc["lines"])[np.asarray(doc["line_data"]["tag"]) == doc["tags"]["inlet"]]
+    ends = pts[inlet]
+    # The run's end vertices stay, and its edges cover it (within the resampling tolerance).
+    assert np.hypot(*(pts - run[0]).T).min() < 1e-9
+    assert np.hypot(*(pts - run[-1]).T).min() < 1e-9
+    assert abs(np.hypot(*(ends[:, 1] - ends[:, 0]).T).sum() - (run[0, 1] - run[-1, 1])) < 0.1
+    assert np.all(np.abs(ends[..., 0]) <= 1.0)  # on the western side only
+    assert doc["summary"]["smoothed"]["boundary"]["max_deviation"] <= 1.0
+
+
+async def test_the_process_description_offers_a_refinement_growth(
+    client: httpx.AsyncClient,
+) -> None:
+    import json
+
+    described = (await client.get("/processes/mesh")).json()
+    text = json.dumps(described["inputs"]["refinements"])
+    assert "growth" in text
+    assert "away from the geometry; default the job's" in text
