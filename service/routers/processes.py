@@ -193,7 +193,7 @@ def _execute_route(router: APIRouter, process: Process) -> None:
             ) from None
         base = base_url(request)
         if created and request_body.subscriber is not None:  # before any await: no event missed
-            callbacks.subscribe(record.id, base, request_body.subscriber)
+            await callbacks.subscribe(record.id, base, request_body.subscriber)
         headers = {"Location": f"{base}/jobs/{record.id}"}
         if mode.applied is not None:
             headers["Preference-Applied"] = mode.applied
