@@ -161,13 +161,20 @@ def calibrate(target: float) -> float:
     time grows with its triangles, about 1 / size^2)."""
     import engine
     from service.jobs import runners
+    from service.processes import PROCESSES, inputs_at
+    from service.settings import Settings
 
     engine.warmup()
+    process = PROCESSES["mesh"]
+    settings = Settings(_env_file=None)  # type: ignore[call-arg]
     size = 0.008
     for _ in range(3):
         inputs = {"boundary": SQUARE, "size": size, "growth": 1.2, "swap": True}
+        model = process.inputs_model.model_validate({**inputs, "smoothing": {"method": "none"}})
+        # the payload a job runs with: the request as the service prepares it
+        payload = process.prepare(model, settings, inputs_at("/inputs")).inputs
         t0 = time.perf_counter()
-        runners.mesh({**inputs, "smoothing": {"method": "none"}}, _quiet, _never)
+        runners.mesh(payload, _quiet, _never)
         size *= math.sqrt((time.perf_counter() - t0) / target)
     return round(size, 5)
 
