@@ -8,17 +8,28 @@ blocking the event loop, and the execute response's outputs (``response`` and ``
 from __future__ import annotations
 
 import asyncio
+import re
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
 from .formats import FORMATS, ResultFormat, StoredResult
-from .jobs.store import FINAL, JobRecord, JobStore
+from .jobs.store import FINAL, JobRecord, JobStatus, JobStore
 from .jobs.task import unpack
 from .problems import Problem
+from .views import link
 
-__all__ = ["Preference", "output_format", "parse_prefer", "preference", "wait_final"]
+__all__ = [
+    "Failure",
+    "Preference",
+    "failure",
+    "job_problem",
+    "output_format",
+    "parse_prefer",
+    "preference",
+    "wait_final",
+]
 
 #: First and last pause between two looks at the store while a sync request waits.
 _FIRST_POLL, _LAST_POLL = 0.01, 0.25
@@ -89,6 +100,86 @@ async def wait_final(store: JobStore, job_id: str, timeout: float) -> JobRecord 
             return record
         await asyncio.sleep(min(pause, left))
         pause = min(pause * 2, _LAST_POLL)
+
+
+@dataclass(frozen=True)
+class Failure:
+    """What kind of failure a failed job's message names, as an HTTP problem."""
+
+    status: int
+    kind: str
+    title: str
+
+
+#: The service's own failure messages (written by ``service.jobs``: the backends, the manager,
+#: the store) -> the failure they name, first match wins. Any other message is a runner's
+#: ``TaskError``: the input's fault, found while running.
+_FAILURES: tuple[tuple[re.Pattern[str], Failure], ...] = tuple(
+    (re.compile(pattern), failure)
+    for pattern, failure in (
+        (
+            r"^stopped after exceeding the time limit",
+            Failure(422, "limit-exceeded", "Job over the time limit"),
+        ),
+        (r"^internal error: ", Failure(500, "internal-error", "Job failed on an internal error")),
+        # a crash (worker killed, out of memory) on the last attempt the settings allow
+        (r"\(attempt \d+ of \d+\)$", Failure(500, "job-crashed", "Job crashed")),
+        (r"^interrupted on attempt ", Failure(500, "job-crashed", "Job crashed")),
+        (r"^the Dask scheduler at ", Failure(503, "backend-unavailable", "Backend unavailable")),
+        (
+            r"^(the (job|task) could not be handed to a worker|it could not be queued again"
+            r"|its stored input cannot be read|process '.*' is not available"
+            r"|stored with an unknown status)",
+            Failure(500, "internal-error", "Job failed on an internal error"),
+        ),
+    )
+)
+_LATE_INPUT = Failure(422, "invalid-input", "Invalid input found while running")
+
+
+def failure(message: str) -> Failure:
+    """The failure a failed job's ``message`` names.
+
+    >>> failure("stopped after exceeding the time limit of 2 s").status
+    422
+    >>> failure("the worker process was killed by SIGKILL (attempt 3 of 3)").kind
+    'job-crashed'
+    >>> failure("the boundary crosses itself near (0.5, 0.5)").kind
+    'invalid-input'
+    """
+    for pattern, named in _FAILURES:
+        if pattern.search(message):
+            return named
+    return _LATE_INPUT
+
+
+def job_problem(base: str, record: JobRecord) -> Problem:
+    """The problem answering a synchronous execution whose job ended without outputs: its
+    failure (status from the failure's kind) or its dismissal, naming the job (``jobID``, a
+    link to its status and the ``Location`` header)."""
+    status_url = f"{base}/jobs/{record.id}"
+    extra: dict[str, Any] = {
+        "jobID": record.id,
+        "links": [link(status_url, "status", title="the job")],
+    }
+    headers = {"Location": status_url}
+    if record.status is JobStatus.dismissed:
+        return Problem(
+            410,
+            "the job was dismissed before it ended",
+            kind="job-dismissed",
+            headers=headers,
+            **extra,
+        )
+    named = failure(record.message)
+    return Problem(
+        named.status,
+        f"the job failed: {record.message}",
+        kind=named.kind,
+        title=named.title,
+        headers=headers,
+        **extra,
+    )
 
 
 def output_format(outputs: Mapping[str, Any] | None, known: Mapping[str, Any]) -> ResultFormat:

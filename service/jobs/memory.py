@@ -40,6 +40,7 @@ class _Row:
     inputs: bytes  #: JSON
     idempotency_key: str | None
     request_hash: str | None
+    subscriber: bytes = b""  #: JSON callback state, b"" when none
 
 
 @dataclass(eq=False)
@@ -326,3 +327,19 @@ class MemoryJobStore:
             for batch_id in [b for b in t.batches if b not in kept]:
                 del t.batches[batch_id]
         return len(old)
+
+    # -- subscriber callbacks ----------------------------------------------------------------
+    def set_subscriber(self, job_id: str, state: dict[str, Any] | None) -> bool:
+        t = self._open()
+        with t.lock:
+            row = t.jobs.get(job_id)
+            if row is None:
+                return False
+            row.subscriber = b"" if state is None else _json(state)
+            return True
+
+    def subscribed(self) -> list[tuple[str, dict[str, Any]]]:
+        t = self._open()
+        with t.lock:
+            rows = sorted((r for r in t.jobs.values() if r.subscriber), key=lambda r: r.seq)
+            return [(r.record.id, orjson.loads(r.subscriber)) for r in rows]

@@ -52,7 +52,8 @@ CREATE TABLE IF NOT EXISTS jobs (
     started REAL,
     finished REAL,
     meta TEXT NOT NULL DEFAULT '{}',
-    owner TEXT NOT NULL DEFAULT ''
+    owner TEXT NOT NULL DEFAULT '',
+    subscriber TEXT NOT NULL DEFAULT ''
 );
 CREATE INDEX IF NOT EXISTS jobs_status ON jobs (status, seq);
 CREATE INDEX IF NOT EXISTS jobs_finished ON jobs (finished);
@@ -76,7 +77,7 @@ _COLUMNS = (
 )
 #: Columns added since the first release, created on opening an older file.
 _ADDED = {
-    "jobs": {"owner": "TEXT NOT NULL DEFAULT ''"},
+    "jobs": {"owner": "TEXT NOT NULL DEFAULT ''", "subscriber": "TEXT NOT NULL DEFAULT ''"},
     "batches": {"owner": "TEXT NOT NULL DEFAULT ''"},
 }
 _UNFINISHED = (JobStatus.accepted.value, JobStatus.running.value)
@@ -467,6 +468,33 @@ class SqliteJobStore:
                 " (SELECT 1 FROM jobs WHERE jobs.batch_id = batches.id)"
             )
         return int(n)
+
+    # -- subscriber callbacks ----------------------------------------------------------------
+    @_translated
+    def set_subscriber(self, job_id: str, state: dict[str, Any] | None) -> bool:
+        """Keep the callback state of a job (its subscriber and the deliveries done); None
+        forgets it. Returns whether the job exists."""
+        text = "" if state is None else orjson.dumps(state).decode()
+        return self._update("UPDATE jobs SET subscriber = ? WHERE id = ?", (text, job_id))
+
+    @_translated
+    def subscribed(self) -> list[tuple[str, dict[str, Any]]]:
+        """The jobs with a callback state, oldest first, each with its state (an unreadable
+        state is skipped: it cannot be delivered)."""
+        rows = (
+            self._conn()
+            .execute("SELECT id, subscriber FROM jobs WHERE subscriber != '' ORDER BY seq")
+            .fetchall()
+        )
+        out = []
+        for job_id, text in rows:
+            try:
+                state = json.loads(text)
+            except ValueError:
+                continue
+            if isinstance(state, dict):
+                out.append((job_id, state))
+        return out
 
     @_translated
     def ping(self) -> None:

@@ -178,6 +178,13 @@ class JobStore(Protocol):
     def purge(self, finished_before: float) -> int:
         """Delete jobs that finished (or were dismissed) before the time; returns how many."""
 
+    def set_subscriber(self, job_id: str, state: dict[str, Any] | None) -> bool:
+        """Keep a job's subscriber-callback state (a JSON object; None forgets it), so that a
+        restarted service resumes the deliveries not done. Returns whether the job exists."""
+
+    def subscribed(self) -> list[tuple[str, dict[str, Any]]]:
+        """``(job id, state)`` of every job with a subscriber-callback state, oldest first."""
+
     def ping(self) -> None:
         """Raise if the store cannot be written."""
 

@@ -111,6 +111,7 @@ async def dismiss_job(
     record = manager.dismiss(jobId)
     if record is None:
         raise Problem(404, f"there is no job {jobId!r}", kind="no-such-job")
+    request.app.state.callbacks.changed(jobId)  # a dismissed job is called back no more
     return JSONResponse(status_info(base_url(request), record))
 
 

@@ -15,13 +15,13 @@ from ..deps import ManagerDep, OwnerDep, SettingsDep
 from ..formats import FORMATS
 from ..inputs import ExecuteRequest
 from ..jobs.manager import request_digest
-from ..jobs.store import IdempotencyConflict
+from ..jobs.store import IdempotencyConflict, JobStatus
 from ..middleware import JsonBodyRoute, Then, problem_fields
 from ..problems import Problem, problem_for
 from ..processes import PROCESSES, Prepared, Process, inputs_at
 from ..schemas import ProcessDescription, ProcessList, StatusInfo
 from ..settings import Settings
-from ..sync import output_format, preference, render_output, wait_final
+from ..sync import job_problem, output_format, preference, render_output, wait_final
 from ..views import base_url, link, status_info
 
 _REL_EXECUTE = "http://www.opengis.net/def/rel/ogc/1.0/execute"
@@ -141,6 +141,13 @@ _EXECUTE_RESPONSES: dict[int | str, dict[str, Any]] = {
         "headers": {"Location": _LOCATION, "Preference-Applied": _APPLIED},
     },
     **QUEUE_FULL,
+    # A synchronous execution whose job ended without outputs: the failure, naming the job.
+    410: {"description": "the job was dismissed within 'Prefer: wait=N'"},
+    422: {
+        "description": "invalid input; or, within a wait, input found invalid while running"
+        " or the job over the time limit"
+    },
+    500: {"description": "the job failed on an internal error or crashed within the wait"},
 }
 
 
@@ -258,7 +265,7 @@ def _execute_route(router: APIRouter, process: Process) -> None:
             ) from None
         base = base_url(request)
         if created and request_body.subscriber is not None:  # before any await: no event missed
-            callbacks.subscribe(record.id, base, request_body.subscriber)
+            await callbacks.subscribe(record.id, base, request_body.subscriber)
         headers = {"Location": f"{base}/jobs/{record.id}"}
         if mode.applied is not None:
             headers["Preference-Applied"] = mode.applied
@@ -276,6 +283,11 @@ def _execute_route(router: APIRouter, process: Process) -> None:
                 return Response(
                     b'{"mesh":' + mesh + b"}", media_type="application/json", headers=headers
                 )
+            if record.status in (JobStatus.failed, JobStatus.dismissed):
+                problem = job_problem(base, record)
+                problem.headers.update(headers)
+                raise problem
+        # 201: the job is still running when the wait ended (or no wait was asked)
         return JSONResponse(status_info(base, record), status_code=201, headers=headers)
 
     router.add_api_route(

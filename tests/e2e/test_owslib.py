@@ -3,6 +3,7 @@ discovery, synchronous and asynchronous execution, and the 3.0 OpenAPI document 
 
 from __future__ import annotations
 
+import json
 import time
 from collections.abc import Iterator
 from typing import Any
@@ -62,6 +63,40 @@ def test_async_execution(client: Processes, server: Server) -> None:
     assert status["status"] == "successful"
     results = server.client.get(f"{location}/results").json()
     assert len(results["triangles"]) > 0
+
+
+@pytest.fixture(scope="module")
+def strict_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
+    """A server whose jobs may run 0.1 s: a mesh of about 70,000 triangles (a second's work)
+    fails on the time limit."""
+    started = Server(
+        tmp_path_factory.mktemp("owslib-strict") / "data",
+        workers=1,
+        EVOMESH_JOB_TIMEOUT="0.1",
+        EVOMESH_CANCEL_GRACE="1",
+    )
+    yield started
+    started.stop()
+
+
+def test_sync_execution_of_a_failing_job_is_its_problem(strict_server: Server) -> None:
+    big = {**MESH, "size": 0.004}
+    with pytest.raises(RuntimeError) as raised:  # OWSLib: the body of a non-2xx answer
+        Processes(strict_server.url + "/").execute("mesh", big)
+    problem = json.loads(str(raised.value))
+    assert problem["status"] == 422
+    assert problem["type"].endswith("limit-exceeded")
+    assert "time limit of 0.1 s" in problem["detail"]
+    job_url = f"{strict_server.url}/jobs/{problem['jobID']}"
+    assert job_url in [link["href"] for link in problem["links"]]
+    assert strict_server.client.get(job_url).json()["status"] == "failed"
+    # the same over plain HTTP: the problem media type, and the job in Location
+    r = strict_server.client.post(
+        "/processes/mesh/execution", json={"inputs": big}, headers={"Prefer": "wait=60"}
+    )
+    assert r.status_code == 422, r.text
+    assert r.headers["content-type"] == "application/problem+json"
+    assert r.headers["location"] == f"{strict_server.url}/jobs/{r.json()['jobID']}"
 
 
 def test_server_log_has_no_traceback(server: Server) -> None:

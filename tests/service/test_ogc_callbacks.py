@@ -4,17 +4,22 @@ from __future__ import annotations
 
 import json
 import threading
-from collections.abc import Iterator
+from collections.abc import AsyncIterator, Iterator
+from contextlib import asynccontextmanager
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from pathlib import Path
 from typing import Any
 
 import anyio
 import httpx
 import pytest
 
-from service.callbacks import private_host
+from service.app import create_app
+from service.callbacks import CallbackNotifier, private_host
+from service.jobs.sqlite import SqliteJobStore
+from service.jobs.store import NewJob
 
-from .conftest import SQUARE, ClientFactory, assert_problem
+from .conftest import SQUARE, TEST_PROCESSES, ClientFactory, assert_problem, make_settings, wait_for
 
 pytestmark = pytest.mark.anyio
 
@@ -161,3 +166,88 @@ async def test_non_http_uris_are_invalid(client: httpx.AsyncClient, uri: str) ->
 )
 def test_private_host(uri: str, private: bool) -> None:
     assert private_host(uri) is private
+
+
+def test_the_store_keeps_a_subscriber_state_across_reopening(tmp_path: Path) -> None:
+    path = tmp_path / "jobs.sqlite3"
+    store = SqliteJobStore(path)
+    for job_id in ("a", "b", "c"):
+        store.create(NewJob(job_id, "mesh", {}))
+    state = {"base": "http://x", "uris": {"successUri": "http://r/done"}, "sent": []}
+    assert store.set_subscriber("a", state)
+    assert store.set_subscriber("b", {**state, "sent": ["inProgressUri"]})
+    assert not store.set_subscriber("nope", state)  # no such job
+    store._conn().execute("UPDATE jobs SET subscriber = '{not json' WHERE id = 'c'")
+    store.close()
+    again = SqliteJobStore(path)
+    assert again.subscribed() == [("a", state), ("b", {**state, "sent": ["inProgressUri"]})]
+    assert again.set_subscriber("a", None)
+    assert [job_id for job_id, _ in again.subscribed()] == ["b"]
+    again.close()
+
+
+@asynccontextmanager
+async def _service(data: Path) -> AsyncIterator[httpx.AsyncClient]:
+    """A started app on ``data`` (a service process, in this one); stopped on leaving."""
+    settings = make_settings(
+        data, callback_private_hosts=True, callback_backoff=0.01, callback_attempts=20
+    )
+    app = create_app(settings, processes=TEST_PROCESSES)
+    async with app.router.lifespan_context(app):
+        transport = httpx.ASGITransport(app=app)
+        async with httpx.AsyncClient(transport=transport, base_url="http://testserver") as c:
+            c.app = app  # type: ignore[attr-defined]
+            yield c
+
+
+def _notifier(client: httpx.AsyncClient) -> CallbackNotifier:
+    notifier: CallbackNotifier = client.app.state.callbacks  # type: ignore[attr-defined]
+    return notifier
+
+
+async def test_the_subscriber_is_stored_before_the_answer_and_forgotten_once_done(
+    make_client: ClientFactory, receiver: Receiver, tmp_path: Path
+) -> None:
+    client = await _client(make_client)
+    body = {"inputs": {"seconds": 30}, "subscriber": _subscriber(receiver.url)}
+    r = await client.post("/processes/sleep/execution", json=body)
+    assert r.status_code == 201, r.text
+    store = client.app.state.manager.store  # type: ignore[attr-defined]
+    ((job_id, state),) = store.subscribed()
+    assert job_id == r.json()["jobID"]
+    assert state["uris"] == _subscriber(receiver.url)
+    assert state["base"] == "http://testserver"
+    await _until(lambda: receiver.answered("/running", 204))
+    await _until(lambda: store.subscribed() == [] or store.subscribed()[0][1]["sent"])
+    assert store.subscribed()[0][1]["sent"] == ["inProgressUri"]
+    await client.delete(f"/jobs/{job_id}")  # dismissed: nothing more to call back
+    await _until(lambda: store.subscribed() == [])
+    assert receiver.statuses("/done") == receiver.statuses("/failed") == []
+
+
+async def test_a_delivery_cut_by_a_stop_is_resumed_by_the_next_start(tmp_path: Path) -> None:
+    receiver = Receiver({"/done": 10**6})  # down until after the restart
+    receiver.thread.start()
+    data = tmp_path / "data"
+    try:
+        async with _service(data) as client:
+            body = {"inputs": MESH, "subscriber": _subscriber(receiver.url)}
+            job_id = (await client.post("/processes/mesh/execution", json=body)).json()["jobID"]
+            assert (await wait_for(client, job_id))["status"] == "successful"
+            await _until(lambda: 500 in receiver.statuses("/done"))
+            await _until(lambda: receiver.answered("/running", 204))
+        with receiver.lock:
+            receiver.fail_first["/done"] = 0  # the receiver is back
+        async with _service(data) as client:
+            notifier = _notifier(client)
+            assert notifier.resumed == 1
+            await _until(lambda: receiver.answered("/done", 204))
+            (doc,) = receiver.answered("/done", 204)
+            assert (doc["jobID"], doc["status"]) == (job_id, "successful")
+            # the start was delivered before the stop: it is not sent again
+            assert receiver.statuses("/running") == [204]
+            store = client.app.state.manager.store  # type: ignore[attr-defined]
+            await _until(lambda: store.subscribed() == [])
+    finally:
+        receiver.server.shutdown()
+        receiver.server.server_close()

@@ -5,11 +5,13 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import anyio
 import httpx
 import meshio
 import pytest
+from service.jobs.backend import Task
 
-from .conftest import SQUARE, assert_problem, wait_for
+from .conftest import SQUARE, app_of, assert_problem, wait_for
 
 pytestmark = pytest.mark.anyio
 
@@ -118,10 +120,62 @@ async def test_wait_running_out_answers_the_job(client: httpx.AsyncClient) -> No
     await client.delete(f"/jobs/{r.json()['jobID']}")
 
 
-async def test_failed_job_within_the_wait_answers_its_status(client: httpx.AsyncClient) -> None:
+async def _sync_failure(
+    client: httpx.AsyncClient, process: str, inputs: dict[str, Any], status: int, kind: str
+) -> dict[str, Any]:
+    """Execute with ``Prefer: wait=60``: a problem of ``status`` and ``kind`` naming the job."""
     r = await client.post(
-        "/processes/fail/execution", json={"inputs": {}}, headers={"Prefer": "wait=60"}
+        f"/processes/{process}/execution", json={"inputs": inputs}, headers={"Prefer": "wait=60"}
     )
-    assert r.status_code == 201, r.text
-    assert r.json()["status"] == "failed"
-    assert (await wait_for(client, r.json()["jobID"]))["status"] == "failed"
+    doc = assert_problem(r, status, kind)
+    assert r.headers["preference-applied"] == "wait=60"
+    job_url = f"http://testserver/jobs/{doc['jobID']}"
+    assert r.headers["location"] == job_url
+    assert {"href": job_url, "rel": "status", "type": "application/json", "title": "the job"} in (
+        doc["links"]
+    )
+    assert doc["detail"].startswith("the job failed") or status == 410
+    job = await wait_for(client, doc["jobID"])
+    assert job["status"] in {"failed", "dismissed"}
+    return doc
+
+
+async def test_bad_input_found_late_within_the_wait_is_a_422(client: httpx.AsyncClient) -> None:
+    doc = await _sync_failure(client, "fail", {}, 422, "invalid-input")
+    assert doc["detail"] == "the job failed: bad input"
+
+
+async def test_time_limit_within_the_wait_is_a_422(make_client: Any) -> None:
+    client = await make_client(job_timeout=0.5, cancel_grace=0.5)
+    doc = await _sync_failure(client, "hang", {"seconds": 30}, 422, "limit-exceeded")
+    assert "time limit of 0.5 s" in doc["detail"]
+
+
+async def test_a_crash_on_the_last_attempt_within_the_wait_is_a_500(make_client: Any) -> None:
+    client = await make_client(max_attempts=1)
+    doc = await _sync_failure(client, "crash", {}, 500, "job-crashed")
+    assert "killed by SIGKILL (attempt 1 of 1)" in doc["detail"]
+
+
+def _refuse(task: Task) -> None:
+    raise MemoryError("no memory to hand the task over")
+
+
+async def test_an_internal_failure_within_the_wait_is_a_500(client: httpx.AsyncClient) -> None:
+    with pytest.MonkeyPatch.context() as patch:  # the backend cannot take the job
+        patch.setattr(app_of(client).state.manager.backend, "submit", _refuse)
+        doc = await _sync_failure(client, "sleep", {"seconds": 0}, 500, "internal-error")
+    assert "could not be handed to a worker: MemoryError" in doc["detail"]
+
+
+async def test_a_job_dismissed_within_the_wait_is_a_410(client: httpx.AsyncClient) -> None:
+    async def dismiss_when_running() -> None:
+        listed: list[dict[str, Any]] = []
+        while not listed:
+            listed = (await client.get("/jobs", params={"status": "running"})).json()["jobs"]
+            await anyio.sleep(0.02)
+        await client.delete(f"/jobs/{listed[0]['jobID']}")
+
+    async with anyio.create_task_group() as tg:
+        tg.start_soon(dismiss_when_running)
+        await _sync_failure(client, "sleep", {"seconds": 30}, 410, "job-dismissed")
