@@ -6,6 +6,8 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from ..jobs.factory import BACKENDS
+
 
 def register(sub: Any) -> None:
     p: argparse.ArgumentParser = sub.add_parser(
@@ -20,9 +22,10 @@ def register(sub: Any) -> None:
     p.add_argument("--workers", type=int, default=None, help="worker processes (default: CPUs)")
     p.add_argument(
         "--backend",
-        choices=["local", "dask"],
+        choices=sorted(BACKENDS),
         default=None,
-        help="compute backend: a local process pool (default) or a Dask cluster",
+        help="compute backend: a local process pool (default), a Dask cluster, or inline (one "
+        "job at a time on a thread of the service: tests and tiny deployments)",
     )
     p.add_argument(
         "--scheduler",
