@@ -3,7 +3,7 @@
 The store is the source of truth: a job row exists before the client hears of the job, every
 status change goes through it (conditionally, so late events cannot resurrect a dismissed job), and
 a restarted service finds its unfinished jobs there. Every implementation passes the contract suite
-in ``tests/service/test_store_contract.py``.
+in ``tests/service/jobs/test_store_contract.py``.
 """
 
 from __future__ import annotations

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.service.test_ogc_callbacks import Receiver
+from tests.service.routers.test_ogc_callbacks import Receiver
 
 from .server import Server, descendants
 

@@ -8,7 +8,7 @@ import json
 
 import pytest
 
-from ..service.test_tagged_formats import DOC
+from ..service.formats.test_tagged_formats import DOC
 from . import test_viewer as viewer_tests
 from .browser import Browser
 from .server import Server

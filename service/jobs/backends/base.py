@@ -6,7 +6,7 @@ event loop: ``started`` once per run, ``progress`` any number of times, then exa
 ``finished`` with an :class:`~service.jobs.task.Outcome` for every task submitted, whether it
 succeeded, failed, crashed its worker, ran out of time or was cancelled. Retrying is the
 caller's business. Every implementation passes the contract suite in
-``tests/service/test_backend_contract.py``; :mod:`service.jobs.factory` builds one from the
+``tests/service/jobs/test_backend_contract.py``; :mod:`service.jobs.factory` builds one from the
 settings (this interface imports no implementation).
 """
 
