@@ -139,8 +139,8 @@ async def test_ready_waits_for_a_warm_dask_worker(tmp_path: Path) -> None:
     from service.app import create_app
     from service.jobs.backends.dask_worker import is_warm
 
-    from .clusters import local_cluster
-    from .conftest import TEST_PROCESSES, make_settings
+    from ..clusters import local_cluster
+    from ..conftest import TEST_PROCESSES, make_settings
 
     cluster = local_cluster(0)
     try:

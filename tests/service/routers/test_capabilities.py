@@ -92,7 +92,7 @@ async def test_health_ready_and_metrics(client: httpx.AsyncClient) -> None:
 async def test_ready_fails_when_the_service_is_not_running(tmp_path: object) -> None:
     from service.app import create_app
 
-    from .conftest import make_settings
+    from ..conftest import make_settings
 
     app = create_app(make_settings(tmp_path))  # type: ignore[arg-type]
     transport = httpx.ASGITransport(app=app)

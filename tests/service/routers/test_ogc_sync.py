@@ -9,6 +9,7 @@ import anyio
 import httpx
 import meshio
 import pytest
+
 from service.jobs.task import Task
 
 from ..conftest import SQUARE, app_of, assert_problem, wait_for
@@ -152,7 +153,7 @@ async def test_time_limit_within_the_wait_is_a_422(make_client: Any) -> None:
 
 
 async def test_a_crash_on_the_last_attempt_within_the_wait_is_a_500(make_client: Any) -> None:
-    client = await make_client(max_attempts=1)
+    client = await make_client(max_attempts=1, backend="local")  # a crash needs a worker process
     doc = await _sync_failure(client, "crash", {}, 500, "job-crashed")
     assert "killed by SIGKILL (attempt 1 of 1)" in doc["detail"]
 
