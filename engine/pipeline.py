@@ -24,6 +24,7 @@ from .resample import resample_region
 from .result import ProgressFn, Result, Snapshot, StopFn
 from .sizing import build_size_field, estimate_triangles
 from .smoothing import SMOOTHERS, smooth_points
+from .spanning import split_spanning
 from .swap import regularise_valence, swap_diagonals
 
 __all__ = [
@@ -148,7 +149,9 @@ def mesh_region(
 
     The mesher is the advancing front followed by ``relax_sweeps`` sweeps of constrained
     relaxation, edge collapses where fronts left a node too many
-    (:func:`engine.collapse.collapse_edges`) and relaxation again (0 gives the raw front).
+    (:func:`engine.collapse.collapse_edges`), a node in each wedge-spanning triangle where
+    that helps (:func:`engine.spanning.split_spanning`) and relaxation again (0 gives the raw
+    front).
     Raises :class:`LimitExceeded` when the estimated (or, while meshing, the actual) triangle
     count is over ``max_triangles``; every stage polls ``should_stop`` and reports ``progress``
     (stages ``sizing``, ``estimate``, ``discretize``, ``front``, ``relax``, ``collapse``).
@@ -179,7 +182,7 @@ def mesh_region(
     mesh = relax(front, relax_sweeps, should_stop=should_stop)
     if relax_sweeps > 0:  # 0 asks for the raw front
         progress("collapse", 0.0)
-        collapsed = collapse_edges(mesh, should_stop=should_stop)
+        collapsed = split_spanning(collapse_edges(mesh, should_stop=should_stop))
         progress("relax", 0.5)
         mesh = relax(collapsed, relax_sweeps, should_stop=should_stop)
     progress("relax", 1.0)
