@@ -3,13 +3,14 @@
 Near a sharp input corner the front fills the wedge with a ladder of triangles whose three nodes
 all lie on the boundary: relaxation and the smoother cannot move them, swapping only re-pairs
 them. A ladder rung across a theta-wedge has an angle of ``180 - (180 - theta) / 2`` at its foot
-(105 degrees at 30), which bounds its radius ratio by 0.655 whatever the node spacing, while the
-corner's own triangle reaches 0.767. Each such triangle below :data:`SPLIT_BELOW` is offered a
-new interior node joined to the corners of a small cavity: the triangle alone, the triangle and
-one neighbour across an interior side, or the triangle and all its interior neighbours. The node
-is placed where the worst triangle of its fan is best (compass search), and the best cavity is
-kept when its fan's worst triangle beats the cavity's old worst by :data:`GAIN`. A cavity never
-holds a node whose only triangle it is, so an input corner's angle is never split.
+(105 degrees at 30), which caps its radius ratio at 0.655 whatever the node spacing, while the
+corner's own triangle reaches 0.767. Each such triangle worse than the worst triangle holding an
+input corner whole (nothing can lift that one) is offered a new interior node joined to the
+corners of a small cavity: the triangle alone, with one neighbour across an interior side, or
+with all its interior neighbours. The node goes where the worst radius ratio of its fan is best
+(compass search); the best cavity is refilled when that beats the cavity's old worst by
+:data:`GAIN` and no angle falls more than 3 degrees below min(the cavity's smallest, 30), so an
+input corner's angle is split only where both halves stay above the bound min(corner, 30).
 """
 
 from __future__ import annotations
@@ -143,19 +144,23 @@ def _split_round(mesh: Mesh) -> Mesh | None:
     if mesh.n_triangles == 0:
         return None
     tri, p = mesh.triangles, mesh.points
-    q = radius_ratio(p, tri)
+    # Only triangles with all three nodes on the boundary are looked at (the radius ratio of
+    # the others is never needed; the boundary mask is cached for the relaxation that follows).
+    spanning = mesh.boundary_nodes[tri].all(axis=1)
+    if not spanning.any():
+        return None
+    q = np.full(len(tri), np.inf)
+    q[spanning] = radius_ratio(p, tri[spanning])
     valence = np.bincount(tri.ravel(), minlength=mesh.n_points)
-    # A triangle holding a node of valence one keeps that input corner's angle whatever is
-    # done around it: splitting triangles already better than the worst of those would add
-    # triangles (and lower the mean) without lifting the worst.
+    # A triangle holding a node of valence one (always a spanning one) keeps that input
+    # corner's angle whatever is done around it: splitting triangles already better than the
+    # worst of those would add triangles (and lower the mean) without lifting the worst.
     cornered = (valence[tri] == 1).any(axis=1)
     floor = min(SPLIT_BELOW, float(q[cornered].min())) if cornered.any() else SPLIT_BELOW
-    spanning = mesh.boundary_nodes[tri].all(axis=1) & (q < floor)
-    candidates = np.flatnonzero(spanning)
+    candidates = np.flatnonzero(spanning & (q < floor))
     if candidates.size == 0:
         return None
     nbr = _neighbours(tri)
-    angle = np.radians(min_angle(p, tri))
     used = np.zeros(len(tri), dtype=bool)
     new_points: list[tuple[float, float]] = []
     fans: list[IntArray] = []
@@ -168,8 +173,10 @@ def _split_round(mesh: Mesh) -> Mesh | None:
             # No angle well below both the cavity's smallest and 30 degrees, so an input
             # corner's angle is only split where both halves stay above min(corner, 30); the
             # slack is for the smoother, which lifts the fan's angles with its free nodes.
-            gains = worst > q[tris].min() * (1.0 + GAIN)
-            gains = gains and smallest >= min(angle[tris].min(), _THIRTY) - _ANGLE_SLACK
+            old = tri[tris]
+            gains = worst > radius_ratio(p, old).min() * (1.0 + GAIN)
+            least = min(float(np.radians(min_angle(p, old)).min()), _THIRTY)
+            gains = gains and smallest >= least - _ANGLE_SLACK
             if gains and (best is None or worst > best[2]):
                 best = (x, y, worst, tris, ring)
         if best is None:
