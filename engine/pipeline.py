@@ -19,7 +19,7 @@ from .front import advance_front
 from .mesh import Mesh
 from .params import PipelineParams, SizingParams, SmoothingParams
 from .quality import shape_quality, summarize, triangle_quality
-from .relax import relax
+from .relax import relax, relax_mean
 from .resample import resample_region
 from .result import ProgressFn, Result, Snapshot, StopFn
 from .sizing import build_size_field, estimate_triangles
@@ -240,6 +240,9 @@ def _improve(
                 outcome, regular = plain, None
         if regular is not None:
             swapped_mesh = regular
+    if smoothing.method != "none":  # a last settling for the mean, never worse at the worst
+        settled = relax_mean(swapped_mesh.with_points(outcome.points))
+        outcome = replace(outcome, points=settled.points)
     # Assessed once, when it is known which mesh the smoother kept (unchanged: not again).
     second = first if swapped_mesh is initial else assess_mesh(swapped_mesh, smoothing)
     progress("smooth", 1.0)

@@ -23,6 +23,7 @@ from numpy.typing import NDArray
 
 from .mesh import Mesh
 from .quality import min_angle, radius_ratio
+from .relax import radius_ratio_xy
 from .swap import _neighbours
 
 __all__ = ["split_spanning"]
@@ -52,12 +53,10 @@ def _fan(p: FloatArray, ring: IntArray, x: float, y: float) -> tuple[float, floa
     for i in range(k):
         ax, ay = p[ring[i], 0], p[ring[i], 1]
         bx, by = p[ring[(i + 1) % k], 0], p[ring[(i + 1) % k], 1]
-        area = 0.5 * ((bx - ax) * (y - ay) - (by - ay) * (x - ax))
+        q = radius_ratio_xy(ax, ay, bx, by, x, y)
         a = math.hypot(bx - ax, by - ay)
         b = math.hypot(x - bx, y - by)
         c = math.hypot(ax - x, ay - y)
-        # 2r/R = 8 A^2 / (s a b c) with s the half perimeter.
-        q = 16.0 * area * abs(area) / max((a + b + c) * a * b * c, 1e-300)
         worst, total = min(worst, q), total + q
         # The smallest angle faces the shortest side.
         lo, m1, m2 = (a, b, c) if a <= min(b, c) else ((b, a, c) if b <= c else (c, a, b))
