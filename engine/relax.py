@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 
 from .errors import Cancelled
 from .mesh import Mesh
-from .quality import radius_ratio
+from .quality import radius_ratio, shape_quality
 from .result import StopFn
 
 __all__ = ["node_stars", "radius_ratio_xy", "relax", "relax_mean"]
@@ -181,14 +181,14 @@ def radius_ratio_xy(ax: float, ay: float, bx: float, by: float, cx: float, cy: f
 @nb.njit(cache=True, inline="always")
 def _star_rr(
     p: FloatArray, t: IntArray, start: IntArray, tri_of: IntArray, v: int
-) -> tuple[float, float]:
-    """Worst and summed radius ratio of the triangles around ``v``."""
-    worst, total = np.inf, 0.0
+) -> tuple[float, float, float]:
+    """Worst and summed radius ratio, and worst shape quality, of the triangles around ``v``."""
+    worst, total, shape = np.inf, 0.0, np.inf
     for k in range(start[v], start[v + 1]):
         a, b, c = t[tri_of[k], 0], t[tri_of[k], 1], t[tri_of[k], 2]
         q = radius_ratio_xy(p[a, 0], p[a, 1], p[b, 0], p[b, 1], p[c, 0], p[c, 1])
-        worst, total = min(worst, q), total + q
-    return worst, total
+        worst, total, shape = min(worst, q), total + q, min(shape, _q(p, t, tri_of[k]))
+    return worst, total, shape
 
 
 @nb.njit(cache=True)
@@ -200,6 +200,7 @@ def _relax_mean(
     tri_of: IntArray,
     sweeps: int,
     floor: float,
+    shape_floor: float,
 ) -> int:  # pragma: no cover - compiled
     moved = 0
     # After the first sweep only nodes next to one that moved are looked at again.
@@ -215,14 +216,15 @@ def _relax_mean(
                     w = t[tri_of[k], j]
                     if w != v:
                         sx, sy, cnt = sx + p[w, 0], sy + p[w, 1], cnt + 1
-            worst, total = _star_rr(p, t, start, tri_of, v)
-            least = min(worst, floor)
+            worst, total, shape = _star_rr(p, t, start, tri_of, v)
+            least, least_shape = min(worst, floor), min(shape, shape_floor)
             ox, oy = p[v, 0], p[v, 1]
             tx, ty = sx / cnt - ox, sy / cnt - oy
             for step in (1.0, 0.5, 0.25):
                 p[v, 0], p[v, 1] = ox + step * tx, oy + step * ty
-                new_worst, new_total = _star_rr(p, t, start, tri_of, v)
-                if new_total > total + MEAN_GAIN and new_worst >= least and new_worst > 0.0:
+                new_worst, new_total, new_shape = _star_rr(p, t, start, tri_of, v)
+                kept = new_worst >= least and new_shape >= least_shape and new_worst > 0.0
+                if new_total > total + MEAN_GAIN and kept:
                     moved += 1
                     for k in range(start[v], start[v + 1]):
                         for j in range(3):
@@ -238,9 +240,10 @@ def relax_mean(mesh: Mesh, sweeps: int = MEAN_SWEEPS, floor: float = MEAN_FLOOR)
 
     Each free node moves toward the centroid of its neighbours (a full, half or quarter step)
     when that raises the summed radius ratio of its star and the star's worst stays at least
-    the lower of its old worst and ``max(floor, the mesh's worst)``: the mesh's worst triangle
-    never gets worse, while a star already well above it may give a little of its worst for
-    its mean (:func:`relax` never gives any, and leaves graded bands below gmsh's mean).
+    the lower of its old worst and ``max(floor, the mesh's worst)``, in radius ratio and in
+    shape quality alike: the mesh's worst triangle never gets worse by either measure, while a
+    star well above it may give a little of its worst for its mean (:func:`relax` never gives
+    any, and leaves graded bands below gmsh's mean).
 
     >>> pts = np.array([[0.0, 0], [1, 0], [1, 1], [0, 1], [0.8, 0.7]])
     >>> tris = np.array([[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]])
@@ -251,7 +254,9 @@ def relax_mean(mesh: Mesh, sweeps: int = MEAN_SWEEPS, floor: float = MEAN_FLOOR)
     if sweeps <= 0 or mesh.n_triangles == 0:
         return Mesh(points, mesh.triangles)
     worst = float(radius_ratio(points, mesh.triangles).min())
+    worst_shape = float(shape_quality(points, mesh.triangles).min())
     start, tri_of = node_stars(mesh.triangles, mesh.n_points)
     fixed = np.ascontiguousarray(mesh.boundary_nodes)
-    _relax_mean(points, mesh.triangles, fixed, start, tri_of, sweeps, max(floor, worst))
+    floors = max(floor, worst), max(floor, worst_shape)
+    _relax_mean(points, mesh.triangles, fixed, start, tri_of, sweeps, *floors)
     return Mesh(points, mesh.triangles)

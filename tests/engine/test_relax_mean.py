@@ -7,7 +7,7 @@ from hypothesis import given, settings
 
 from engine import PipelineParams, SizingParams, make_region, mesh_then_smooth
 from engine.mesh import Mesh
-from engine.quality import radius_ratio
+from engine.quality import radius_ratio, shape_quality
 from engine.relax import relax, relax_mean
 
 from .random_meshes import meshes
@@ -22,6 +22,8 @@ def test_relax_mean_keeps_the_worst_and_raises_the_mean(mesh: Mesh) -> None:
     assert np.all(settled.areas > 0)
     assert np.array_equal(settled.points[mesh.boundary_nodes], mesh.points[mesh.boundary_nodes])
     assert after.min() >= min(before.min(), 0.8) - 1e-12
+    shape_before = shape_quality(mesh.points, mesh.triangles).min()
+    assert shape_quality(settled.points, settled.triangles).min() >= min(shape_before, 0.8) - 1e-12
     assert after.mean() >= before.mean() - 1e-12
 
 
