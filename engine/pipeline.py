@@ -20,11 +20,12 @@ from .front import advance_front
 from .mesh import Mesh
 from .params import PipelineParams, SizingParams, SmoothingParams
 from .quality import shape_quality, summarize, triangle_quality
-from .relax import relax
+from .relax import relax, relax_mean
 from .resample import resample_region
 from .result import ProgressFn, Result, Snapshot, StopFn
 from .sizing import build_size_field
 from .smoothing import SMOOTHERS, smooth_points
+from .spanning import split_spanning
 from .swap import regularise_valence, swap_diagonals
 
 __all__ = [
@@ -160,7 +161,9 @@ def mesh_region(
 
     The mesher is the advancing front followed by ``relax_sweeps`` sweeps of constrained
     relaxation, edge collapses where fronts left a node too many
-    (:func:`engine.collapse.collapse_edges`) and relaxation again (0 gives the raw front).
+    (:func:`engine.collapse.collapse_edges`), a node in each wedge-spanning triangle where
+    that helps (:func:`engine.spanning.split_spanning`) and relaxation again (0 gives the raw
+    front).
     Raises :class:`LimitExceeded` when the estimated (or, while meshing, the actual) triangle
     count is over ``max_triangles``; every stage polls ``should_stop`` and reports ``progress``
     (stages ``sizing``, ``estimate``, ``discretize``, ``front``, ``relax``, ``collapse``).
@@ -191,7 +194,7 @@ def mesh_region(
     mesh = relax(front, relax_sweeps, should_stop=should_stop)
     if relax_sweeps > 0:  # 0 asks for the raw front
         progress("collapse", 0.0)
-        collapsed = collapse_edges(mesh, should_stop=should_stop)
+        collapsed = split_spanning(collapse_edges(mesh, should_stop=should_stop))
         progress("relax", 0.5)
         mesh = relax(collapsed, relax_sweeps, should_stop=should_stop)
     progress("relax", 1.0)
@@ -249,6 +252,9 @@ def _improve(
                 outcome, regular = plain, None
         if regular is not None:
             swapped_mesh = regular
+    if smoothing.method != "none":  # a last settling for the mean, never worse at the worst
+        settled = relax_mean(swapped_mesh.with_points(outcome.points))
+        outcome = replace(outcome, points=settled.points)
     # Assessed once, when it is known which mesh the smoother kept (unchanged: not again).
     second = first if swapped_mesh is initial else assess_mesh(swapped_mesh, smoothing)
     progress("smooth", 1.0)

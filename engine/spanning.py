@@ -1,0 +1,195 @@
+"""Split triangles that span a wedge: a node for the triangles whose corners are all fixed.
+
+Near a sharp input corner the front fills the wedge with a ladder of triangles whose three nodes
+all lie on the boundary: relaxation and the smoother cannot move them, swapping only re-pairs
+them. A ladder rung across a theta-wedge has an angle of ``180 - (180 - theta) / 2`` at its foot
+(105 degrees at 30), which caps its radius ratio at 0.655 whatever the node spacing, while the
+corner's own triangle reaches 0.767. Each such triangle worse than the worst triangle holding an
+input corner whole (nothing can lift that one) is offered a new interior node joined to the
+corners of a small cavity: the triangle alone, with one neighbour across an interior side, or
+with all its interior neighbours. The node goes where the worst radius ratio of its fan is best
+(compass search); the best cavity is refilled when that beats the cavity's old worst by
+:data:`GAIN` and no angle falls more than 3 degrees below min(the cavity's smallest, 30), so an
+input corner's angle is split only where both halves stay above the bound min(corner, 30).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+from numpy.typing import NDArray
+
+from .mesh import Mesh
+from .quality import min_angle, radius_ratio
+from .relax import radius_ratio_xy
+from .swap import _neighbours
+
+__all__ = ["split_spanning"]
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+#: Triangles with all three nodes on the boundary below this radius ratio are candidates.
+SPLIT_BELOW = 0.85
+#: A cavity is refilled only when its worst triangle gains this much (relative).
+GAIN = 0.02
+#: Passes of :func:`split_spanning`.
+ROUNDS = 3
+#: Compass-search halvings when placing the new node.
+_HALVINGS = 14
+_THIRTY = math.radians(30.0)
+#: How far below min(the cavity's smallest angle, 30 degrees) the fan's smallest may be placed.
+_ANGLE_SLACK = math.radians(3.0)
+
+
+@nb.njit(cache=True, inline="always")
+def _fan(p: FloatArray, ring: IntArray, x: float, y: float) -> tuple[float, float, float]:
+    """Worst and mean radius ratio (negative when inverted) and the smallest angle (radians)
+    of the triangles joining (x, y) to each side of ``ring``."""
+    worst, total, smallest = np.inf, 0.0, np.inf
+    k = ring.shape[0]
+    for i in range(k):
+        ax, ay = p[ring[i], 0], p[ring[i], 1]
+        bx, by = p[ring[(i + 1) % k], 0], p[ring[(i + 1) % k], 1]
+        q = radius_ratio_xy(ax, ay, bx, by, x, y)
+        a = math.hypot(bx - ax, by - ay)
+        b = math.hypot(x - bx, y - by)
+        c = math.hypot(ax - x, ay - y)
+        worst, total = min(worst, q), total + q
+        # The smallest angle faces the shortest side.
+        lo, m1, m2 = (a, b, c) if a <= min(b, c) else ((b, a, c) if b <= c else (c, a, b))
+        cos = (m1 * m1 + m2 * m2 - lo * lo) / max(2.0 * m1 * m2, 1e-300)
+        smallest = min(smallest, math.acos(min(max(cos, -1.0), 1.0)))
+    return worst, total / k, smallest
+
+
+@nb.njit(cache=True)
+def _place(
+    p: FloatArray, ring: IntArray
+) -> tuple[float, float, float, float, float]:  # pragma: no cover - compiled
+    """Where a node inside ``ring`` makes the worst fan triangle best: (x, y, the fan's worst
+    and mean radius ratio, its smallest angle)."""
+    k = ring.shape[0]
+    x, y, step = 0.0, 0.0, 0.0
+    for i in range(k):
+        x += p[ring[i], 0] / k
+        y += p[ring[i], 1] / k
+    for i in range(k):
+        j = ring[(i + 1) % k]
+        step += math.hypot(p[j, 0] - p[ring[i], 0], p[j, 1] - p[ring[i], 1]) / (4.0 * k)
+    worst, mean, smallest = _fan(p, ring, x, y)
+    for _ in range(_HALVINGS):
+        moved = True
+        while moved:
+            moved = False
+            for d in range(8):
+                a = d * math.pi / 4.0
+                cx, cy = x + step * math.cos(a), y + step * math.sin(a)
+                w, m, a = _fan(p, ring, cx, cy)
+                if w > worst:
+                    x, y, worst, mean, smallest, moved = cx, cy, w, m, a, True
+        step *= 0.5
+    return x, y, worst, mean, smallest
+
+
+def _cavities(tri: IntArray, nbr: IntArray, t: int) -> list[tuple[list[int], list[int]]]:
+    """The cavities offered around triangle ``t``: (triangles, corners counter-clockwise)."""
+    sides = [k for k in range(3) if nbr[t, k] >= 0]
+    options: list[list[int]] = [[]] + [[k] for k in sides] + ([sides] if len(sides) > 1 else [])
+    out = []
+    for chosen in options:
+        ring: list[int] = []
+        tris = [t]
+        for j in range(3):
+            ring.append(int(tri[t, j]))
+            k = (j + 2) % 3  # the side from corner j to corner j + 1
+            if k in chosen:
+                n = int(nbr[t, k])
+                apex = [int(v) for v in tri[n] if v != tri[t, j] and v != tri[t, (j + 1) % 3]]
+                ring.append(apex[0])
+                tris.append(n)
+        out.append((tris, ring))
+    return out
+
+
+def split_spanning(mesh: Mesh, rounds: int = ROUNDS) -> Mesh:
+    """``mesh`` with a new interior node in each wedge-spanning triangle where that helps.
+
+    Up to ``rounds`` passes: a cavity is taken by one triangle a pass, so a neighbour whose best
+    cavity overlapped it tries again around the new node.
+
+    A 30-degree wedge: the corner's triangle, a rung (radius ratio 0.641) and two more.
+
+    >>> from engine.quality import radius_ratio
+    >>> side = np.array([np.cos(np.pi / 6), np.sin(np.pi / 6)])
+    >>> pts = np.array([[0.0, 0], [1, 0], [1.67, 0], 1.67 * side, side, [2.5, 0]])
+    >>> tris = np.array([[0, 1, 4], [1, 2, 4], [2, 3, 4], [2, 5, 3]])
+    >>> split = split_spanning(Mesh(pts, tris))
+    >>> split.n_points, round(float(radius_ratio(split.points, split.triangles).min()), 3)
+    (7, 0.655)
+    """
+    for _ in range(rounds):
+        split = _split_round(mesh)
+        if split is None:
+            break
+        mesh = split
+    return mesh
+
+
+def _split_round(mesh: Mesh) -> Mesh | None:
+    """One pass of :func:`split_spanning`; None when nothing was split."""
+    if mesh.n_triangles == 0:
+        return None
+    tri, p = mesh.triangles, mesh.points
+    # Only triangles with all three nodes on the boundary are looked at (the radius ratio of
+    # the others is never needed; the boundary mask is cached for the relaxation that follows).
+    spanning = mesh.boundary_nodes[tri].all(axis=1)
+    if not spanning.any():
+        return None
+    q = np.full(len(tri), np.inf)
+    q[spanning] = radius_ratio(p, tri[spanning])
+    valence = np.bincount(tri.ravel(), minlength=mesh.n_points)
+    # A triangle holding a node of valence one (always a spanning one) keeps that input
+    # corner's angle whatever is done around it: splitting triangles already better than the
+    # worst of those would add triangles (and lower the mean) without lifting the worst.
+    cornered = (valence[tri] == 1).any(axis=1)
+    floor = min(SPLIT_BELOW, float(q[cornered].min())) if cornered.any() else SPLIT_BELOW
+    candidates = np.flatnonzero(spanning & (q < floor))
+    if candidates.size == 0:
+        return None
+    nbr = _neighbours(tri)
+    used = np.zeros(len(tri), dtype=bool)
+    new_points: list[tuple[float, float]] = []
+    fans: list[IntArray] = []
+    for t in candidates[np.argsort(q[candidates], kind="stable")].tolist():
+        best: tuple[float, float, float, list[int], list[int]] | None = None
+        for tris, ring in _cavities(tri, nbr, t):
+            if used[tris].any():
+                continue
+            x, y, worst, _, smallest = _place(p, np.asarray(ring, dtype=np.int64))
+            # No angle well below both the cavity's smallest and 30 degrees, so an input
+            # corner's angle is only split where both halves stay above min(corner, 30); the
+            # slack is for the smoother, which lifts the fan's angles with its free nodes.
+            old = tri[tris]
+            gains = worst > radius_ratio(p, old).min() * (1.0 + GAIN)
+            least = min(float(np.radians(min_angle(p, old)).min()), _THIRTY)
+            gains = gains and smallest >= least - _ANGLE_SLACK
+            if gains and (best is None or worst > best[2]):
+                best = (x, y, worst, tris, ring)
+        if best is None:
+            continue
+        x, y, _, tris, ring = best
+        used[tris] = True
+        node = mesh.n_points + len(new_points)
+        new_points.append((x, y))
+        fans.append(
+            np.array([[a, b, node] for a, b in zip(ring, ring[1:] + ring[:1], strict=True)])
+        )
+    if not fans:
+        return None
+    return Mesh(
+        np.concatenate([p, np.asarray(new_points)]),
+        np.concatenate([tri[~used], *fans]).astype(np.int64),
+    )

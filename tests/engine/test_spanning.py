@@ -1,0 +1,58 @@
+"""Splitting wedge-spanning triangles: never worse, input corners kept whole (that the meshes
+stay conforming is tested with every mesh_region in test_mesher_properties)."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from engine.mesh import Mesh
+from engine.quality import min_angle, radius_ratio
+from engine.spanning import split_spanning
+
+
+def _ladder(theta: float, rungs: int, ratio: float) -> Mesh:
+    """A theta-degree wedge filled by a ladder of boundary-only triangles, rungs at distances
+    1, ratio, ratio^2, ... from the corner."""
+    t = np.radians(theta)
+    r = ratio ** np.arange(rungs)
+    lower = np.c_[r, np.zeros(rungs)]
+    upper = np.c_[r * np.cos(t), r * np.sin(t)]
+    pts = np.concatenate([[[0.0, 0.0]], lower, upper])
+    low, up = 1 + np.arange(rungs), 1 + rungs + np.arange(rungs)
+    tris = [[0, low[0], up[0]]]
+    for k in range(rungs - 1):
+        tris += [[low[k], low[k + 1], up[k]], [low[k + 1], up[k + 1], up[k]]]
+    return Mesh(pts, np.array(tris, dtype=np.int64))
+
+
+@settings(max_examples=40, deadline=None)
+@given(theta=st.floats(20.0, 45.0), rungs=st.integers(3, 6), ratio=st.floats(1.3, 1.9))
+def test_a_ladder_is_split_without_losing_its_corner(
+    theta: float, rungs: int, ratio: float
+) -> None:
+    ladder = _ladder(theta, rungs, ratio)
+    split = split_spanning(ladder)
+    before = radius_ratio(ladder.points, ladder.triangles)
+    after = radius_ratio(split.points, split.triangles)
+    smallest = min(float(min_angle(ladder.points, ladder.triangles).min()), 30.0)
+    assert np.all(split.areas > 0)
+    assert np.isclose(split.areas.sum(), ladder.areas.sum())
+    # Only interior nodes are added; no angle falls far below min(the smallest, 30), so the
+    # corner's triangle stays whole where halving its angle would go below that.
+    assert np.array_equal(split.points[: ladder.n_points], ladder.points)
+    assert split.boundary_nodes[ladder.n_points :].sum() == 0
+    assert min_angle(split.points, split.triangles).min() >= smallest - 3.0 - 1e-9
+    if theta / 2 < smallest - 3.0:
+        assert [0, 1, 1 + rungs] in split.triangles.tolist()
+    assert after.min() >= before.min()
+
+
+def test_the_worst_rung_of_a_30_degree_ladder_is_lifted() -> None:
+    # The rung's 105-degree foot caps it at 0.655; with a node it reaches the corner's 0.767.
+    ladder = _ladder(30.0, 4, 1.67)
+    split = split_spanning(ladder)
+    assert radius_ratio(ladder.points, ladder.triangles).min() < 0.65
+    assert split.n_points > ladder.n_points
+    assert radius_ratio(split.points, split.triangles).min() > 0.65
