@@ -254,7 +254,8 @@ def _improve(
             swapped_mesh = regular
     if smoothing.method != "none":  # a last settling for the mean, never worse at the worst
         settled = relax_mean(swapped_mesh.with_points(outcome.points))
-        outcome = replace(outcome, points=settled.points)
+        if not np.array_equal(settled.points, outcome.points):  # the GA's fitness is stale
+            outcome = replace(outcome, points=settled.points, fitness=None)
     # Assessed once, when it is known which mesh the smoother kept (unchanged: not again).
     second = first if swapped_mesh is initial else assess_mesh(swapped_mesh, smoothing)
     progress("smooth", 1.0)
