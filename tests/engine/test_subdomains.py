@@ -331,15 +331,17 @@ def test_resampled_strips_with_digitised_interfaces_conform_and_share_them(
 def test_one_polygon_as_subdomains_matches_the_plain_pipeline(method: str) -> None:
     """The subdomain path runs the same post-processing (swapping, valence regularisation,
     smoothing) and reports the same timings as the single-region path: on one polygon the
-    worst radius ratio agrees within 0.01 (the held-edge swap sees the same mesh)."""
-    t = np.linspace(0, 2 * np.pi, 40, endpoint=False)
-    annulus = (np.c_[np.cos(t), np.sin(t)], [0.4 * np.c_[np.cos(-t), np.sin(-t)]])
-    params = PipelineParams(SizingParams(0.1), smoothing=SmoothingParams(method))
-    plain = mesh_then_smooth(make_region([annulus]), params, np.random.default_rng(0))
-    sub = mesh_subdomains([annulus], params, rng=np.random.default_rng(0)).result
+    worst radius ratio agrees within 0.005 (without valence regularisation the subdomain path
+    ended at 0.8013 against the plain 0.8195 with laplacian here)."""
+    t = np.linspace(0, 2 * np.pi, 60, endpoint=False)
+    hole = np.c_[1 + 0.3 * np.cos(-t), 0.5 + 0.3 * np.sin(-t)]
+    plate = ([[0, 0], [2, 0], [2, 1], [0, 1]], [hole])
+    params = PipelineParams(SizingParams(0.08), smoothing=SmoothingParams(method))
+    plain = mesh_then_smooth(make_region([plate]), params, np.random.default_rng(0))
+    sub = mesh_subdomains([plate], params, rng=np.random.default_rng(0)).result
     assert sorted(sub.timings) == sorted(plain.timings) == [
         "boundary", "mesh", "smooth", "swap", "total",
     ]  # fmt: skip
     assert all(v >= 0 for v in sub.timings.values())
     worst = sub.smoothed.summary["quality"]["min"]
-    assert worst >= plain.smoothed.summary["quality"]["min"] - 0.01
+    assert worst >= plain.smoothed.summary["quality"]["min"] - 0.005
