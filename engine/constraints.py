@@ -21,6 +21,7 @@ from __future__ import annotations
 import itertools
 import json
 import math
+import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
@@ -35,12 +36,10 @@ from .boundary import Region
 from .errors import Cancelled, EngineError, MeshingError
 from .mesh import Mesh, edge_table
 from .params import PipelineParams
-from .pipeline import assess_mesh, mesh_region
+from .pipeline import improve_mesh, mesh_region
 from .resample import Resampled, resample_constraints
 from .result import ProgressFn, Result, StopFn
 from .sizing import SizeField, build_size_field
-from .smoothing import smooth_points
-from .swap import swap_diagonals
 
 __all__ = [
     "Constrained",
@@ -498,6 +497,7 @@ def mesh_with_constraints(
     (0, True)
     """
     rng = rng if rng is not None else np.random.default_rng(0)
+    started = time.perf_counter()
     geoms = check_constraints(constraints, region)
     if progress is not None:
         progress("boundary", 0.0)
@@ -507,11 +507,20 @@ def mesh_with_constraints(
         region, sizing = boundary.region, replace(sizing, resample=False)
         _check_inside(geoms, region)
     field = build_size_field(region, sizing)
-    mesh, _ = mesh_region(region, sizing, params.relax, should_stop, params.max_triangles, progress)
+    resampled = time.perf_counter() - started
+    mesh, timings = mesh_region(
+        region, sizing, params.relax, should_stop, params.max_triangles, progress
+    )
+    t = time.perf_counter()
     got = insert_constraints(mesh, region, geoms, [field], should_stop=should_stop)
     if progress is not None:
         progress("mesh", 1.0)
-    result = improve_held(got.mesh, got.edges, got.pinned, params, rng, progress, should_stop)
+    # Checking, resampling and the field count with the boundary, insertion with the mesh.
+    timings["boundary"] += resampled
+    timings["mesh"] += time.perf_counter() - t
+    result = improve_held(
+        got.mesh, got.edges, got.pinned, params, rng, progress, should_stop, timings, started
+    )
     result.parameters["constraints"] = plain_geometries(geoms)
     if boundary is not None:
         summary = {**boundary.summary(), "constraints_max_deviation": deviation}
@@ -534,36 +543,19 @@ def improve_held(
     rng: np.random.Generator,
     progress: ProgressFn | None = None,
     should_stop: StopFn | None = None,
+    timings: Mapping[str, float] | None = None,
+    started: float | None = None,
 ) -> Result:
-    """Swap with the ``locked`` edges held and smooth with the ``pinned`` nodes held (as
-    boundary nodes); the stages as :func:`engine.mesh_then_smooth` reports them, with its
-    ``progress`` stages ``swap`` and ``smooth``, polling ``should_stop`` between them."""
-    progress = progress or _quiet
-    should_stop = should_stop or _never
-    first = assess_mesh(mesh, params.smoothing)
-    held = PinnedMesh(mesh.points, mesh.triangles, pinned)
-    if should_stop():
-        raise Cancelled("stopped before swapping")
-    progress("swap", 0.0)
-    swapped = (
-        swap_diagonals(held, locked, relax=params.smoothing.method != "none")
-        if params.swap
-        else held
-    )
-    progress("swap", 1.0)
-    second = assess_mesh(swapped, params.smoothing)
-    if should_stop():
-        raise Cancelled("stopped before smoothing")
-    progress("smooth", 0.0)
-    outcome = smooth_points(
-        PinnedMesh(swapped.points, swapped.triangles, pinned), params.smoothing, rng,
-        progress, should_stop,
-    )  # fmt: skip
-    progress("smooth", 1.0)
-    final = assess_mesh(swapped.with_points(outcome.points), params.smoothing)
-    return Result(
-        initial=first, swapped=second, smoothed=final, history=outcome.history,
-        parameters=params.to_dict(), timings={},
+    """Swap and smooth ``mesh`` as :func:`engine.mesh_then_smooth` does (diagonal swapping,
+    valence regularisation, smoothing) with the ``locked`` edges never flipped and the
+    ``pinned`` nodes held (as boundary nodes); its ``progress`` stages ``swap`` and ``smooth``,
+    polling ``should_stop`` between them. ``timings`` (the meshing stages') gain ``swap``,
+    ``smooth`` and ``total`` (since ``started``, by default now)."""
+    return improve_mesh(
+        PinnedMesh(mesh.points, mesh.triangles, pinned), params.smoothing, params.swap, rng,
+        progress or _quiet, should_stop or _never,
+        {"boundary": 0.0, "mesh": 0.0, **(timings or {})}, params.to_dict(),
+        time.perf_counter() if started is None else started, locked=locked,
     )  # fmt: skip
 
 

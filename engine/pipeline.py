@@ -34,6 +34,7 @@ __all__ = [
     "SUBSTAGES",
     "assess_mesh",
     "compiled_kernels",
+    "improve_mesh",
     "job_progress",
     "mesh_region",
     "mesh_then_smooth",
@@ -213,7 +214,7 @@ def _check_method(smoothing: SmoothingParams) -> None:
         )
 
 
-def _improve(
+def improve_mesh(
     initial: Mesh,
     smoothing: SmoothingParams,
     swap: bool,
@@ -223,21 +224,33 @@ def _improve(
     timings: dict[str, float],
     parameters: dict[str, Any],
     started: float,
+    *,
+    locked: NDArray[np.int64] | None = None,
 ) -> Result:
+    """Swap (diagonals, then valence), smooth and assess ``initial``, as
+    :func:`mesh_then_smooth` does after meshing: ``timings`` (the mesher's) gains ``swap``,
+    ``smooth`` and ``total`` (since ``started``). The ``locked`` edges never flip and
+    ``initial.boundary_nodes`` never move; the intermediate meshes keep ``initial``'s class (a
+    :class:`~engine.constraints.PinnedMesh` keeps its pins)."""
     first = assess_mesh(initial, smoothing)
     t = time.perf_counter()
     if should_stop():
         raise Cancelled("stopped before swapping")
     progress("swap", 0.0)
     relax = smoothing.method != "none"  # settle displaced nodes before deciding flips
-    swapped_mesh = swap_diagonals(initial, relax=relax) if swap else initial
+    swapped_mesh = initial
+    if swap:
+        flipped = swap_diagonals(initial, locked, relax=relax)
+        swapped_mesh = replace(initial, points=flipped.points, triangles=flipped.triangles)
     progress("swap", 1.0)
     timings["swap"] = time.perf_counter() - t
     t = time.perf_counter()
     if should_stop():
         raise Cancelled("stopped before smoothing")
     progress("smooth", 0.0)
-    regular = regularise_valence(swapped_mesh) if swap and relax else None
+    regular = regularise_valence(swapped_mesh, locked) if swap and relax else None
+    if regular is not None:
+        regular = replace(initial, points=regular.points, triangles=regular.triangles)
     if regular is None:
         outcome = smooth_points(swapped_mesh, smoothing, rng, progress, should_stop)
     else:
@@ -309,7 +322,7 @@ def mesh_then_smooth(
         region, sizing, params.relax, should_stop, params.max_triangles, progress
     )
     progress("mesh", 1.0)
-    result = _improve(
+    result = improve_mesh(
         mesh, params.smoothing, params.swap, rng, progress, should_stop, timings,
         params.to_dict(), started,
     )  # fmt: skip
@@ -334,7 +347,9 @@ def smooth_mesh(
     started = time.perf_counter()
     timings = {"boundary": 0.0, "mesh": 0.0}
     parameters = {"swap": swap, "smoothing": asdict(smoothing)}
-    return _improve(mesh, smoothing, swap, rng, progress, should_stop, timings, parameters, started)
+    return improve_mesh(
+        mesh, smoothing, swap, rng, progress, should_stop, timings, parameters, started
+    )
 
 
 def compiled_kernels() -> dict[str, int]:

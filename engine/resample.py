@@ -6,6 +6,11 @@ first simplifies each ring to the local size: vertices at real corners stay, the
 thinned with Douglas-Peucker (shapely's ``simplify``) so that the new ring stays within
 ``tolerance`` of the input; the usual discretisation then splits it to the size field.
 
+Polygons sharing edges (subdomains) are resampled together (:func:`resample_parts`): each
+stretch of linework between branch points (where more than two ring segments meet), corners
+and ``keep`` points is thinned once, so that the polygons on either side of a shared edge keep
+the same vertices on it.
+
 Constraint lines are resampled the same way (:func:`resample_lines`: their ends, corners and
 the points given as ``keep`` stay), and ``keep`` points that are ring vertices (the ends of a
 named run of a ring, constraint vertices on a ring) stay as corners, so what was drawn on the
@@ -35,7 +40,7 @@ import numpy as np
 import shapely
 from numpy.typing import ArrayLike, NDArray
 
-from .boundary import Region, make_region
+from .boundary import PolygonPart, Region, make_region
 from .errors import InvalidBoundary
 from .params import SizingParams
 
@@ -46,6 +51,7 @@ __all__ = [
     "corners",
     "resample_constraints",
     "resample_lines",
+    "resample_parts",
     "resample_region",
     "resample_size",
     "resample_tolerance",
@@ -326,3 +332,119 @@ def resample_constraints(
         else:
             out.append(shapely.transform(g, onto_rings))
     return resampled, out, deviation
+
+
+_Key = tuple[float, ...]
+
+
+def _piece_key(piece: FloatArray) -> tuple[_Key, bool]:
+    """The same key for a stretch of linework whichever way it is walked, and whether this
+    walk is the reverse of the key's direction."""
+    fwd = tuple(piece[[0, 1, -1]].ravel().tolist())
+    rev = tuple(piece[[-1, -2, 0]].ravel().tolist())
+    return min(fwd, rev), rev < fwd
+
+
+def _branch_points(rings: Sequence[FloatArray]) -> FloatArray:
+    """Vertices met by other than two distinct segments of ``rings``: where shared linework
+    starts or ends, and where polygons meet at a point."""
+    segs = np.concatenate([np.stack([r, np.roll(r, -1, axis=0)], axis=1) for r in rings])
+    flat = segs.reshape(-1, 4)
+    swap = (flat[:, 0] > flat[:, 2]) | ((flat[:, 0] == flat[:, 2]) & (flat[:, 1] > flat[:, 3]))
+    flat[swap] = flat[swap][:, [2, 3, 0, 1]]
+    ends = np.unique(flat, axis=0).reshape(-1, 2)
+    xy, count = np.unique(ends, axis=0, return_counts=True)
+    return xy[count != 2]
+
+
+def _anchors(
+    rings: Sequence[FloatArray], windows: Sequence[float], keep: FloatArray
+) -> set[tuple[float, ...]]:
+    """Vertices every ring keeps: branch points, each ring's corners, ``keep``; and of a ring
+    with fewer than three, points at thirds of its length (in every ring holding them)."""
+    fixed = np.concatenate([_branch_points(rings), keep])
+    for ring, window in zip(rings, windows, strict=True):
+        fixed = np.concatenate([fixed, ring[corners(ring, window)]])
+    out = {tuple(p) for p in fixed.tolist()}
+    for ring in rings:
+        if len(_kept(ring, np.array(sorted(out)).reshape(-1, 2))) < 3:
+            s_of, perimeter = _arc(ring)
+            thirds = np.searchsorted(s_of, perimeter * np.arange(3) / 3.0)
+            # By vertex count too, when one segment spans more than a third.
+            at = np.r_[np.minimum(thirds, len(ring) - 1), len(ring) * np.arange(3) // 3]
+            out |= {tuple(p) for p in ring[at].tolist()}
+    return out
+
+
+def resample_parts(
+    parts: Sequence[PolygonPart], sizings: Sequence[SizingParams], keep: ArrayLike = ()
+) -> Resampled:
+    """Polygons that may share edges (subdomains), each ring re-discretised as
+    :func:`resample_region` does with its part's sizing (``sizings[i]``), every shared stretch
+    thinned once (to the smaller tolerance of its polygons) so both keep the same vertices on
+    it; branch points, corners and ``keep`` points stay. The polygons must be noded (a vertex
+    of one on another's edge is a vertex of both). When a polygon comes out invalid or
+    overlapping another, the tolerances are halved and tried again; after :data:`_RETRIES`
+    halvings the input is kept. The result's region holds the touching parts (not validated
+    as one region).
+
+    >>> from engine.boundary import make_region
+    >>> t = np.linspace(0, 1, 401)
+    >>> left = make_region([(np.r_[[[0, 1], [0, 0]], np.c_[t, 0.01 * np.sin(40 * t)]], [])])
+    >>> right = make_region([(np.r_[np.c_[t, 0.01 * np.sin(40 * t)][::-1], [[1, -1]]], [])])
+    >>> out = resample_parts(
+    ...     [left.parts[0], right.parts[0]], [SizingParams(0.25, resample=True)] * 2
+    ... )
+    >>> a, b = (set(map(tuple, p.outer.tolist())) for p in out.region.parts)
+    >>> len(a & b) < 100, out.vertices_after < 200, out.max_deviation <= 0.025
+    (True, True, True)
+    """
+    rings = [r for p in parts for r in p.rings]
+    owner = [i for i, p in enumerate(parts) for _ in p.rings]
+    windows = [resample_size(sizings[i]) for i in owner]
+    fixed = _anchors(rings, windows, np.asarray(keep, dtype=np.float64).reshape(-1, 2))
+    # Each ring's pieces between its anchors, each piece keyed the same from either side.
+    walks: list[list[tuple[_Key, bool]]] = []
+    pieces: dict[_Key, FloatArray] = {}
+    tolerance: dict[_Key, float] = {}
+    for ring, i in zip(rings, owner, strict=True):
+        at = np.flatnonzero([tuple(p) in fixed for p in ring.tolist()])
+        doubled = np.vstack([ring, ring])
+        walk = []
+        for a, b in pairwise(np.r_[at, at[0] + len(ring)].tolist()):
+            key, backwards = _piece_key(doubled[a : b + 1])
+            pieces[key] = doubled[a : b + 1][::-1] if backwards else doubled[a : b + 1]
+            tolerance[key] = min(tolerance.get(key, np.inf), resample_tolerance(sizings[i]))
+            walk.append((key, backwards))
+        walks.append(walk)
+    keys = list(pieces)
+    lines = np.array([shapely.LineString(pieces[k]) for k in keys])
+    scale = 1.0
+    before = sum(len(r) for r in rings)
+    for _ in range(_RETRIES + 1):
+        tol = np.array([tolerance[k] for k in keys]) * scale
+        simple = shapely.simplify(lines, tol, preserve_topology=False)
+        thinned = {k: shapely.get_coordinates(g) for k, g in zip(keys, simple, strict=True)}
+        out = [
+            np.concatenate([(thinned[k][::-1] if back else thinned[k])[:-1] for k, back in w])
+            for w in walks
+        ]
+        new, k = [], 0
+        for p in parts:
+            new.append(PolygonPart(out[k], tuple(out[k + 1 : k + len(p.rings)])))
+            k += len(p.rings)
+        polys = [q.to_shapely() for q in new]
+        area = sum(q.area for q in polys)
+        try:
+            for q in new:
+                make_region([(q.outer, list(q.holes))])
+        except InvalidBoundary:
+            scale *= 0.5
+            continue
+        if abs(shapely.union_all(polys).area - area) > 1e-9 * area:
+            scale *= 0.5
+            continue
+        deviation = max(_deviation(a, b) for a, b in zip(rings, out, strict=True))
+        after = sum(len(r) for r in out)
+        return Resampled(Region(tuple(new)), deviation, float(tol.min()), before, after)
+    return Resampled(Region(tuple(parts)), 0.0, 0.0, before, before)

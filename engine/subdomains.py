@@ -12,20 +12,26 @@ with its own size, each triangle knowing its polygon.
    shared nodes.
 5. Constraints (lines and points, :mod:`engine.constraints`) are put into the merged mesh,
    their lines noded where they cross an interface; no repair flip crosses an interface.
-6. Swapping never flips an interface or constraint edge and smoothing never moves an
-   interface or constraint node (:class:`~engine.constraints.PinnedMesh`), so the regions keep
-   their polygons' shapes.
+6. Swapping (diagonals, then valence) never flips an interface or constraint edge and
+   smoothing never moves an interface or constraint node
+   (:class:`~engine.constraints.PinnedMesh`), so the regions keep their polygons' shapes; the
+   post-processing and the ``timings`` are :func:`engine.mesh_then_smooth`'s.
+
+With ``sizing.resample`` the noded rings are resampled together
+(:func:`engine.resample.resample_parts`) before step 3: each shared stretch once, branch
+points, corners and constraint vertices kept; constraint lines are not thinned.
 """
 
 from __future__ import annotations
 
+import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 import shapely
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from .boundary import PartInput, PolygonPart, Region, make_region
 from .constraints import (
@@ -42,6 +48,7 @@ from .mesh import Mesh, validate_mesh
 from .params import PipelineParams, SizingParams
 from .pipeline import mesh_region
 from .refinement import Refinement
+from .resample import Resampled, resample_parts
 from .result import ProgressFn, Result, StopFn
 from .sizing import SizeField, build_size_field
 from .tags import interface_edges
@@ -65,6 +72,8 @@ class Subdomains:
     triangle_region: IntArray  #: (m,) 1-based polygon of each final triangle
     #: The constraints put in (their edges, nodes and owners; ``result`` is the same), if any.
     constraints: Constrained | None = None
+    #: The resampling (its region: the resampled polygons, unsplit), with ``sizing.resample``.
+    boundary: Resampled | None = None
 
 
 def _check_overlaps(polys: list[shapely.Polygon], tol: float) -> None:
@@ -169,12 +178,16 @@ def mesh_subdomains(
     constraints: Sequence[Mapping[str, Any]] = (),
     progress: ProgressFn | None = None,
     should_stop: StopFn | None = None,
+    keep: ArrayLike = (),
 ) -> Subdomains:
     """Mesh polygons that may share edges as one conforming mesh, put ``constraints`` (as
     :func:`engine.mesh_with_constraints` takes them) into it, then swap and smooth it with
     interface and constraint edges and nodes held; ``sizes[i]`` is polygon ``i``'s size
     (``None``: the job's). Reports ``progress`` (``boundary``, ``mesh`` by polygon, ``swap``,
-    ``smooth``) and polls ``should_stop`` as :func:`engine.mesh_then_smooth` does.
+    ``smooth``) and polls ``should_stop`` as :func:`engine.mesh_then_smooth` does. With
+    ``sizing.resample`` the rings are resampled together, ``keep`` points (the ends of named
+    runs) and constraint vertices that are ring vertices kept, and the summary's ``boundary``
+    reports the deviation (as :func:`engine.mesh_then_smooth`'s).
 
     >>> left = ([[0, 0], [1, 0], [1, 1], [0, 1]], [])
     >>> right = ([[1, 0], [2, 0], [2, 1], [1, 1], [1, 0.5]], [])
@@ -187,6 +200,7 @@ def mesh_subdomains(
     rng = rng if rng is not None else np.random.default_rng(0)
     progress = progress or _quiet
     stop = should_stop or _never
+    started = time.perf_counter()
     progress("boundary", 0.0)
     regions = []
     for i, part in enumerate(parts):
@@ -215,23 +229,36 @@ def mesh_subdomains(
         for p in own
     ]
     sizes = list(sizes) + [None] * (len(parts) - len(sizes))
-    sizing = [_sizing(params.sizing, sizes, noded, i) for i in range(len(noded))]
+    geoms = check_constraints(constraints, Region(tuple(noded))) if constraints else []
+    boundary, base = None, replace(params.sizing, resample=False)
+    if params.sizing.resample:  # once for all, so that shared stretches stay shared
+        sizing = [_sizing(params.sizing, sizes, noded, i) for i in range(len(noded))]
+        kept = [shapely.get_coordinates(g) for g in geoms]
+        fixed = np.concatenate([np.asarray(keep, dtype=np.float64).reshape(-1, 2), *kept])
+        boundary = resample_parts(noded, sizing, fixed)
+        noded = list(boundary.region.parts)
+        if constraints:
+            geoms = check_constraints(constraints, boundary.region)
+    sizing = [_sizing(base, sizes, noded, i) for i in range(len(noded))]
     fields = [build_size_field(Region((p,)), s) for p, s in zip(noded, sizing, strict=True)]
-    whole = Region(tuple(noded))
-    geoms = check_constraints(constraints, whole) if constraints else []
     split = _split_shared(noded, fields, tol)
+    timings = {"boundary": time.perf_counter() - started, "mesh": 0.0}
     meshes = []
     for k, (p, s) in enumerate(zip(split, sizing, strict=True)):
         if stop():
             raise Cancelled("stopped while meshing the subdomains")
         progress("mesh", k / len(split))
-        meshes.append(mesh_region(Region((p,)), s, params.relax, stop, params.max_triangles)[0])
+        got_mesh, took = mesh_region(Region((p,)), s, params.relax, stop, params.max_triangles)
+        meshes.append(got_mesh)
+        for stage, seconds in took.items():
+            timings[stage] += seconds
+    t = time.perf_counter()
     mesh, region = _merge(meshes)
     try:
         mesh = validate_mesh(mesh.points, mesh.triangles)
     except ValueError as exc:
         raise MeshingError(f"the subdomain meshes do not conform: {exc}") from None
-    outline = shapely.union_all([p.to_shapely() for p in own])
+    outline = shapely.union_all([p.to_shapely() for p in noded])
     if (
         abs(
             float(
@@ -259,9 +286,12 @@ def mesh_subdomains(
     # No flip crosses an interface, so triangles keep their regions through swapping.
     interfaces, _ = interface_edges(mesh.triangles, region)
     locked = interfaces if got is None else np.concatenate([interfaces, got.edges])
-    result = improve_held(mesh, locked, held, params, rng, progress, should_stop)
+    timings["mesh"] += time.perf_counter() - t
+    result = improve_held(mesh, locked, held, params, rng, progress, should_stop, timings, started)
     if geoms:
         result.parameters["constraints"] = plain_geometries(geoms)
+    if boundary is not None:
+        result.smoothed.summary["boundary"] = boundary.summary()
     return Subdomains(
         result=result,
         region=Region(tuple(split)),
@@ -271,6 +301,7 @@ def mesh_subdomains(
         else Constrained(
             result, got.edges, got.edge_constraint, np.flatnonzero(got.pinned).astype(np.int64)
         ),
+        boundary=boundary,
     )
 
 

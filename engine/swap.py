@@ -211,6 +211,20 @@ def _neighbours(triangles: IntArray) -> IntArray:
     return nbr.reshape(m, 3)
 
 
+def _locked(
+    tri: IntArray, nbr: IntArray, fixed_edges: NDArray[np.int64] | None, n_points: int
+) -> BoolArray:
+    """(m, 3) sides that never flip: boundary sides and the ``fixed_edges``."""
+    locked: BoolArray = nbr < 0
+    if fixed_edges is not None and len(fixed_edges):
+        fixed = np.sort(np.asarray(fixed_edges, dtype=np.int64).reshape(-1, 2), axis=1)
+        sides = np.sort(np.stack([tri[:, [1, 2]], tri[:, [2, 0]], tri[:, [0, 1]]], axis=1), axis=2)
+        n = max(n_points, int(fixed.max()) + 1)
+        side_key = sides[..., 0] * n + sides[..., 1]
+        locked |= np.isin(side_key, fixed[:, 0] * n + fixed[:, 1])
+    return locked
+
+
 def swap_diagonals(
     mesh: Mesh, fixed_edges: NDArray[np.int64] | None = None, *, relax: bool = False
 ) -> Mesh:
@@ -236,13 +250,7 @@ def swap_diagonals(
         return mesh
     points = np.ascontiguousarray(mesh.points, dtype=np.float64)
     nbr = _neighbours(tri)
-    locked = nbr < 0
-    if fixed_edges is not None and len(fixed_edges):
-        fixed = np.sort(np.asarray(fixed_edges, dtype=np.int64).reshape(-1, 2), axis=1)
-        sides = np.sort(np.stack([tri[:, [1, 2]], tri[:, [2, 0]], tri[:, [0, 1]]], axis=1), axis=2)
-        n = max(int(points.shape[0]), int(fixed.max()) + 1)
-        side_key = sides[..., 0] * n + sides[..., 1]
-        locked |= np.isin(side_key, fixed[:, 0] * n + fixed[:, 1])
+    locked = _locked(tri, nbr, fixed_edges, len(points))
     # Start from the sides of the worst triangles, so they are repaired first.
     q = shape_quality(points, tri)
     order = (3 * np.argsort(q, kind="stable")[:, None] + np.arange(3)).ravel()
@@ -250,9 +258,11 @@ def swap_diagonals(
     return Mesh(mesh.points, tri)
 
 
-def regularise_valence(mesh: Mesh) -> Mesh | None:
+def regularise_valence(mesh: Mesh, fixed_edges: NDArray[np.int64] | None = None) -> Mesh | None:
     """Flip edges toward a 60-degree mean angle at every node (six triangles inside), then
-    relax; None when nothing flips.
+    relax; None when nothing flips. Boundary edges and ``fixed_edges`` never flip, and the
+    relaxation holds ``mesh.boundary_nodes`` (pinned nodes of a
+    :class:`~engine.constraints.PinnedMesh` too).
 
     Unlike :func:`swap_diagonals` this may lower the worst triangle (never below quality
     ``_VALENCE_Q_FLOOR``): it prepares connectivity for a smoother, and
@@ -270,11 +280,11 @@ def regularise_valence(mesh: Mesh) -> Mesh | None:
         return None
     points = np.ascontiguousarray(mesh.points, dtype=np.float64)
     nbr = _neighbours(tri)
-    locked = nbr < 0
+    locked = _locked(tri, nbr, fixed_edges, len(points))
     angle_sum = np.full(len(points), 360.0)
     on_boundary = mesh.boundary_nodes
     angles = corner_angles(points, tri)
     angle_sum[on_boundary] = np.bincount(tri.ravel(), angles.ravel(), len(points))[on_boundary]
     if _flip_valence(points, tri, nbr, locked, angle_sum, _VALENCE_SWEEPS) == 0:
         return None
-    return relax_nodes(Mesh(mesh.points, tri), sweeps=_RELAX_SWEEPS)
+    return relax_nodes(Mesh(mesh.points, tri), sweeps=_RELAX_SWEEPS, fixed=on_boundary)

@@ -317,9 +317,9 @@ def run_mesh(
     if payload.get("subdomains"):
         sizes = payload["subdomains"]["sizes"]
         sub = engine.mesh_subdomains(
-            payload["parts"], params, sizes, rng, geoms, progress, should_stop
+            payload["parts"], params, sizes, rng, geoms, progress, should_stop, ends
         )
-        result, region = sub.result, sub.region
+        result, region, boundary = sub.result, sub.region, sub.boundary
         if sub.constraints is not None:
             lines, pinned = sub.constraints.lines(names), sub.constraints.nodes
     elif geoms:
@@ -340,7 +340,8 @@ def run_mesh(
             region, params, rng, progress=progress, should_stop=should_stop
         )
     if boundary is not None:
-        region = boundary.region
+        if not payload.get("subdomains"):  # theirs is split along the shared edges
+            region = boundary.region
         runs = [engine.TagRun(r.name, boundary.map_path(r.path)) for r in tagging.runs]
         tagging = engine.Tagging(tagging.names, runs)
     return result, engine.tag_mesh(result.smoothed.mesh, region, tagging, lines, pinned)

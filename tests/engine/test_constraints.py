@@ -3,6 +3,7 @@ and smoothing hold them; bad constraints are located errors."""
 
 from __future__ import annotations
 
+import itertools
 from typing import Any
 
 import numpy as np
@@ -143,3 +144,62 @@ def test_the_same_seed_gives_the_same_constrained_mesh() -> None:
     )
     assert np.array_equal(a.result.smoothed.mesh.points, b.result.smoothed.mesh.points)
     assert np.array_equal(a.result.smoothed.mesh.triangles, b.result.smoothed.mesh.triangles)
+
+
+def test_constrained_meshes_report_the_pipelines_timings_and_post_processing() -> None:
+    """A constraint point at a corner changes nothing: the constrained path (swap, valence
+    regularisation, smoothing) gives the plain pipeline's mesh, with the same timings keys."""
+    from engine import mesh_then_smooth
+
+    params = _params("laplacian", 0.08)
+    plain = mesh_then_smooth(SQUARE, params, np.random.default_rng(0))
+    out = mesh_with_constraints(SQUARE, params, [point(1, 1)], np.random.default_rng(0))
+    assert list(out.result.timings) == list(plain.timings)
+    assert out.result.timings["total"] >= out.result.timings["mesh"] > 0
+    assert np.array_equal(out.result.smoothed.mesh.triangles, plain.smoothed.mesh.triangles)
+    assert np.allclose(out.result.smoothed.mesh.points, plain.smoothed.mesh.points)
+
+
+def _union_jack(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """An n x n grid of squares with alternating diagonals: nodes of valence 4 and 8, which
+    valence regularisation flips."""
+    xy = np.stack(np.meshgrid(np.arange(n + 1.0), np.arange(n + 1.0)), -1).reshape(-1, 2)
+    tris = []
+    for i, j in itertools.product(range(n), range(n)):
+        a, b, c, d = (
+            i * (n + 1) + j,
+            i * (n + 1) + j + 1,
+            (i + 1) * (n + 1) + j + 1,
+            (i + 1) * (n + 1) + j,
+        )
+        tris += [[a, b, c], [a, c, d]] if (i + j) % 2 else [[a, b, d], [b, c, d]]
+    return xy, np.array(tris)
+
+
+@settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2**16), share=st.floats(0.05, 0.5))
+def test_held_edges_and_nodes_survive_valence_regularisation(seed: int, share: float) -> None:
+    """Any set of held interior edges stays in the mesh and any held node stays put through
+    valence regularisation, and through the whole post-processing."""
+    from engine.constraints import PinnedMesh, improve_held
+    from engine.mesh import Mesh
+    from engine.swap import regularise_valence
+
+    rng = np.random.default_rng(seed)
+    xy, tris = _union_jack(8)
+    inside = (xy > 0).all(axis=1) & (xy < 8).all(axis=1)
+    xy[inside] += rng.uniform(-0.15, 0.15, (int(inside.sum()), 2))  # so relaxing moves nodes
+    mesh = Mesh(xy, tris)
+    edges, count, _ = edge_table(mesh.triangles)
+    inner = edges[count == 2]
+    locked = inner[rng.random(len(inner)) < share]
+    pinned = rng.random(mesh.n_points) < share
+    regular = regularise_valence(PinnedMesh(mesh.points, mesh.triangles, pinned), locked)
+    assert regular is not None
+    result = improve_held(mesh, locked, pinned, _params("laplacian"), rng)
+    for final in (regular, result.smoothed.mesh):
+        have = {tuple(e) for e in edge_table(final.triangles)[0].tolist()}
+        assert all(tuple(sorted(e)) in have for e in locked.tolist())
+        assert np.array_equal(final.points[pinned], mesh.points[pinned])
+        validate_mesh(final.points, final.triangles)
+    assert set(result.timings) == {"boundary", "mesh", "swap", "smooth", "total"}

@@ -501,3 +501,55 @@ async def test_the_process_description_offers_a_refinement_growth(
     text = json.dumps(described["inputs"]["refinements"])
     assert "growth" in text
     assert "away from the geometry; default the job's" in text
+
+
+def _traced(a: list[float], b: list[float], rng: np.random.Generator) -> np.ndarray:
+    """``a`` to ``b`` (``b`` left out) traced every 0.3 with 0.05 of noise; ``a`` exact."""
+    a_, b_ = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    n = int(np.hypot(*(b_ - a_)) / 0.3)
+    side = a_ + (np.arange(n) / n)[:, None] * (b_ - a_)
+    side[1:] += rng.uniform(-0.05, 0.05, (n - 1, 2))
+    return side
+
+
+async def test_digitised_subdomains_are_resampled_sharing_their_interface(
+    client: httpx.AsyncClient,
+) -> None:
+    """Two materials sharing a digitised interface, with a named run on a digitised side:
+    with ``resample`` the interface is thinned once (one chain both regions share), the run's
+    ends stay vertices, and the result reports the deviation and the pipeline's timings."""
+    rng = np.random.default_rng(5)
+    shared = _traced([50, 0], [50, 60], rng)  # up the interface
+    west = _traced([0, 60], [0, 0], rng)
+    left = np.concatenate([[[0.0, 0.0]], shared, [[50.0, 60.0]], west])
+    right = np.concatenate([[[50.0, 0.0], [100, 0], [100, 60]], shared[::-1][:-1]])
+    start = 2 + len(shared)  # (0, 60) in left
+    half = start + len(west) // 2
+    run = [{"name": "inlet", "from": start, "to": half}]
+
+    def feature(name: str, ring: np.ndarray, **props: Any) -> dict[str, Any]:
+        coords = [[*ring.tolist(), ring[0].tolist()]]
+        geometry = {"type": "Polygon", "coordinates": coords}
+        return {"type": "Feature", "properties": {"name": name, **props}, "geometry": geometry}
+
+    boundary = {
+        "type": "FeatureCollection",
+        "features": [feature("a", left, tags=run), feature("b", right, h=5)],
+    }
+    inputs = {"boundary": boundary, "size": 10, "resample": True, "smoothing": NONE}
+    doc = await _result(client, inputs)
+    assert len(doc["triangles"]) < 1500  # resampled: not the ~400 digitised vertices kept
+    report = doc["summary"]["smoothed"]["boundary"]
+    assert report["vertices_after"] < report["vertices_before"] / 4
+    assert report["max_deviation"] <= 0.5  # a tenth of the smaller size
+    assert set(doc["summary"]["timings"]) == {"boundary", "mesh", "swap", "smooth", "total"}
+    pts, lines = np.asarray(doc["points"]), np.asarray(doc["lines"])
+    tag = np.asarray(doc["line_data"]["tag"])
+    interface = pts[lines[tag == doc["tags"]["a|b"]]]
+    assert np.all(np.abs(interface[..., 0] - 50) <= 0.5)
+    length = np.hypot(*(interface[:, 1] - interface[:, 0]).T).sum()
+    assert abs(length - 60) < 1.0  # one chain from bottom to top
+    for end in (left[start], left[half]):
+        assert np.hypot(*(pts - end).T).min() < 1e-9
+    inlet = pts[lines[tag == doc["tags"]["inlet"]]]
+    assert np.all(np.abs(inlet[..., 0]) <= 0.5)
