@@ -245,6 +245,8 @@ def _pieces(
     inverse = inverse.ravel()
     which = np.full(len(pts), -1, dtype=np.int64)
     which[inverse] = owner
+    if len(pts) == 0:  # every line lies on a ring: nothing to insert
+        return pts, which, []
     # The smallest size along the constraints: split points are at least this far apart.
     _check_spacing(pts, which, rings, float(np.min([f(pts) for f in fields])))
     segs: list[tuple[int, int, int]] = []

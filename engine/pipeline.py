@@ -266,7 +266,8 @@ def improve_mesh(
         if regular is not None:
             swapped_mesh = regular
     if smoothing.method != "none":  # a last settling for the mean, never worse at the worst
-        settled = relax_mean(swapped_mesh.with_points(outcome.points))
+        # replace, not with_points: a PinnedMesh keeps its pins (they must not move either)
+        settled = relax_mean(replace(swapped_mesh, points=outcome.points))
         if not np.array_equal(settled.points, outcome.points):  # the GA's fitness is stale
             outcome = replace(outcome, points=settled.points, fitness=None)
     # Assessed once, when it is known which mesh the smoother kept (unchanged: not again).
