@@ -263,7 +263,8 @@ class JobManager:
         if created:
             self.metrics.submitted.labels(process.id).inc()
             log.info("job accepted", extra={"job_id": record.id, "processID": process.id})
-            self._dispatch(record.id, process.id, 1, prepared.inputs, owner)
+            if not self._closing:  # else left accepted: the next start's recovery runs it
+                self._dispatch(record.id, process.id, 1, prepared.inputs, owner)
         return record, created
 
     def submit_batch(
