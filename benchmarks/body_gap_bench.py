@@ -3,7 +3,9 @@
 A real server on loopback is sent a ~25 MB ``quality`` request (a 600 x 600 grid mesh) while a
 second client asks ``/health`` back to back: refused by validation, refused by admission (an
 inverted triangle: read and checked after validation, in the body pool since issue 13's missed
-item), and accepted. Prints, for the body read in a thread
+item), and accepted (its inputs encoded in the pool, written to the store in a thread and handed
+to the worker as those bytes: before, the API process unpickled them, encoded them on the event
+loop and pickled them again for the worker). Prints, for the body read in a thread
 (``EVOMESH_BODY_WORKERS=0``, the old way) and in the body process pool, the longest gap
 between two ``/health`` answers while the POST was in flight and how many answers came. Traffic
 only to 127.0.0.1. Prints, does not assert.

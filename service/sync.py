@@ -16,7 +16,7 @@ from typing import Any
 
 from .formats import FORMATS, ResultFormat, StoredResult
 from .jobs.store import FINAL, JobRecord, JobStatus, JobStore
-from .jobs.task import unpack
+from .jobs.task import FailureKind, unpack
 from .problems import Problem
 from .views import link
 
@@ -104,53 +104,67 @@ async def wait_final(store: JobStore, job_id: str, timeout: float) -> JobRecord 
 
 @dataclass(frozen=True)
 class Failure:
-    """What kind of failure a failed job's message names, as an HTTP problem."""
+    """A failed job's failure, as an HTTP problem."""
 
     status: int
     kind: str
     title: str
 
 
-#: The service's own failure messages (written by ``service.jobs``: the backends, the manager,
-#: the store) -> the failure they name, first match wins. Any other message is a runner's
+#: The failure kind a job keeps (set from how its run ended) -> its problem.
+_BY_KIND: dict[str, Failure] = {
+    kind: Failure(status, kind.value, title)
+    for kind, status, title in (
+        (FailureKind.invalid_input, 422, "Invalid input found while running"),
+        (FailureKind.timeout, 422, "Job over the time limit"),
+        (FailureKind.internal, 500, "Job failed on an internal error"),
+        (FailureKind.crashed, 500, "Job crashed"),
+        (FailureKind.backend, 503, "Backend unavailable"),
+    )
+}
+
+#: A job failed before kinds were kept: the service's own failure messages (written by
+#: ``service.jobs``) -> the kind they name, first match wins. Any other message is a runner's
 #: ``TaskError``: the input's fault, found while running.
-_FAILURES: tuple[tuple[re.Pattern[str], Failure], ...] = tuple(
-    (re.compile(pattern), failure)
-    for pattern, failure in (
-        (
-            r"^stopped after exceeding the time limit",
-            Failure(422, "limit-exceeded", "Job over the time limit"),
-        ),
-        (r"^internal error: ", Failure(500, "internal-error", "Job failed on an internal error")),
+_OLD_MESSAGES: tuple[tuple[re.Pattern[str], FailureKind], ...] = tuple(
+    (re.compile(pattern), kind)
+    for pattern, kind in (
+        (r"^stopped after exceeding the time limit", FailureKind.timeout),
+        (r"^internal error: ", FailureKind.internal),
         # a crash (worker killed, out of memory) on the last attempt the settings allow
-        (r"\(attempt \d+ of \d+\)$", Failure(500, "job-crashed", "Job crashed")),
-        (r"^interrupted on attempt ", Failure(500, "job-crashed", "Job crashed")),
-        (r"^the Dask scheduler at ", Failure(503, "backend-unavailable", "Backend unavailable")),
+        (r"\(attempt \d+ of \d+\)$", FailureKind.crashed),
+        (r"^interrupted on attempt ", FailureKind.crashed),
+        (r"^the Dask scheduler at ", FailureKind.backend),
         (
             r"^(the (job|task) could not be handed to a worker|it could not be queued again"
             r"|its stored input cannot be read|process '.*' is not available"
             r"|stored with an unknown status)",
-            Failure(500, "internal-error", "Job failed on an internal error"),
+            FailureKind.internal,
         ),
     )
 )
-_LATE_INPUT = Failure(422, "invalid-input", "Invalid input found while running")
 
 
-def failure(message: str) -> Failure:
-    """The failure a failed job's ``message`` names.
+def failure(message: str, kind: str = "") -> Failure:
+    """The failure of a job that failed with ``message`` and the failure ``kind`` it keeps; a
+    job stored without a kind (or with one this version does not know) by its message.
 
-    >>> failure("stopped after exceeding the time limit of 2 s").status
+    >>> failure("the region is empty", "limit-exceeded").status
     422
-    >>> failure("the worker process was killed by SIGKILL (attempt 3 of 3)").kind
+    >>> failure("out of memory (attempt 3 of 3)", "job-crashed").kind
     'job-crashed'
+    >>> failure("stopped after exceeding the time limit of 2 s").kind
+    'limit-exceeded'
     >>> failure("the boundary crosses itself near (0.5, 0.5)").kind
     'invalid-input'
     """
-    for pattern, named in _FAILURES:
+    named = _BY_KIND.get(kind)
+    if named is not None:
+        return named
+    for pattern, old in _OLD_MESSAGES:
         if pattern.search(message):
-            return named
-    return _LATE_INPUT
+            return _BY_KIND[old]
+    return _BY_KIND[FailureKind.invalid_input]
 
 
 def job_problem(base: str, record: JobRecord) -> Problem:
@@ -171,7 +185,7 @@ def job_problem(base: str, record: JobRecord) -> Problem:
             headers=headers,
             **extra,
         )
-    named = failure(record.message)
+    named = failure(record.message, record.failure)
     return Problem(
         named.status,
         f"the job failed: {record.message}",

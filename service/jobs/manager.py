@@ -20,7 +20,7 @@ import json
 import logging
 import time
 import uuid
-from collections import deque
+from collections import Counter, deque
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -32,11 +32,15 @@ from ..settings import Settings
 from .admission import QueueFull, Throughput, retry_after
 from .backends.base import ComputeBackend
 from .store import BatchRecord, JobRecord, JobStore, NewJob, StoreError, StoreUnavailable
-from .task import Outcome, OutcomeKind, Task
+from .task import FailureKind, Outcome, OutcomeKind, Task
 
 __all__ = ["JobManager", "request_digest"]
 
 log = logging.getLogger("evomesh.jobs")
+
+#: The failure kept with a job whose run ended so, when the outcome does not say (an error's
+#: outcome names whose fault it was).
+_FAILURES = {OutcomeKind.timeout: FailureKind.timeout, OutcomeKind.crashed: FailureKind.crashed}
 
 #: Results up to this size are stored from the event loop (a thread hop costs more).
 INLINE_RESULT_BYTES = 256 * 1024
@@ -81,6 +85,9 @@ class JobManager:
         self._pending: deque[tuple[str, Callable[..., Any], tuple[Any, ...]]] = deque()
         self._finishing: set[str] = set()  #: ids whose final write is on its way
         self._owners: dict[str, str] = {}  #: job id -> owner, of the jobs in _inflight
+        #: Admitted jobs whose row is being written (in a thread), per owner: they count as
+        #: waiting, so concurrent requests cannot pass ``max_queued`` together.
+        self._creating: Counter[str] = Counter()
         self._closing = False
         #: Called with a job id after its status was written (e.g. subscriber callbacks).
         self.on_change: list[Callable[[str], None]] = []
@@ -127,6 +134,7 @@ class JobManager:
                     self.store.fail(
                         record.id,
                         f"interrupted on attempt {record.attempts} of {self.settings.max_attempts}",
+                        FailureKind.crashed,
                     )
                     continue
                 self.store.requeue(record.id, "queued again after a restart")
@@ -138,7 +146,9 @@ class JobManager:
             except Exception as exc:
                 log.exception("job could not be queued again", extra={"job_id": record.id})
                 with contextlib.suppress(StoreError):
-                    self.store.fail(record.id, f"it could not be queued again: {exc}")
+                    self.store.fail(
+                        record.id, f"it could not be queued again: {exc}", FailureKind.internal
+                    )
         if count:
             log.info("re-queued unfinished jobs", extra={"jobs": count})
         return count
@@ -196,14 +206,15 @@ class JobManager:
     # -- requests ------------------------------------------------------------------------------
     @property
     def waiting(self) -> int:
-        """Jobs handed to the backend that have not started yet."""
-        return len(self._inflight) - len(self._running)
+        """Jobs handed to the backend (or being written) that have not started yet."""
+        return len(self._inflight) - len(self._running) + self._creating.total()
 
     def waiting_for(self, owner: str) -> int:
-        """Jobs of ``owner`` handed to the backend that have not started yet."""
-        return sum(
+        """Jobs of ``owner`` handed to the backend (or being written) not started yet."""
+        handed = sum(
             1 for j in self._inflight if j not in self._running and self._owners.get(j) == owner
         )
+        return handed + self._creating[owner]
 
     def admit(self, process: str, count: int, owner: str = "") -> None:
         """Raise :class:`QueueFull` unless ``count`` more jobs may wait: ``max_queued`` in all,
@@ -217,7 +228,7 @@ class JobManager:
             wait = retry_after(waiting + count - limit, self._leaving.per_second())
             raise QueueFull(waiting, limit, count, wait)
 
-    def submit(
+    async def submit(
         self,
         process: Process,
         prepared: Prepared,
@@ -227,7 +238,11 @@ class JobManager:
         owner: str = "",
     ) -> tuple[JobRecord, bool]:
         """Create a job (written before anyone hears of it) and queue it; :class:`QueueFull`
-        when too many wait already. Idempotency keys are the ``owner``'s own."""
+        when too many wait already. Idempotency keys are the ``owner``'s own.
+
+        The row is written in a thread (a large request's inputs are megabytes, and SQLite may
+        wait on its lock); ``prepared.inputs`` is best their stored form already (bytes), so
+        nothing is encoded here, and the worker gets those bytes as they are."""
         self.admit(process.id, 1, owner)
         job = NewJob(
             id=str(uuid.uuid4()),
@@ -238,11 +253,18 @@ class JobManager:
             request_hash=request_hash,
             owner=owner,
         )
-        record, created = self.store.create(job)
+        self._creating[owner] += 1
+        try:
+            record, created = await asyncio.to_thread(self.store.create, job)
+        finally:
+            self._creating[owner] -= 1
+            if not self._creating[owner]:
+                del self._creating[owner]
         if created:
             self.metrics.submitted.labels(process.id).inc()
             log.info("job accepted", extra={"job_id": record.id, "processID": process.id})
-            self._dispatch(record.id, process.id, 1, prepared.inputs, owner)
+            if not self._closing:  # else left accepted: the next start's recovery runs it
+                self._dispatch(record.id, process.id, 1, prepared.inputs, owner)
         return record, created
 
     def submit_batch(
@@ -277,14 +299,15 @@ class JobManager:
         job_id: str,
         process_id: str,
         attempt: int,
-        inputs: dict[str, Any] | None = None,
+        inputs: dict[str, Any] | bytes | None = None,
         owner: str | None = None,
     ) -> bool:
         """Hand a job to the backend; a job that cannot be handed over is failed with the
         reason (and holds no worker). Returns whether it was handed over."""
         process = self.processes.get(process_id)
         if process is None:
-            self._write("fail", self.store.fail, job_id, f"process {process_id!r} is not available")
+            reason = f"process {process_id!r} is not available"
+            self._write("fail", self.store.fail, job_id, reason, FailureKind.internal)
             return False
         try:
             payload = inputs if inputs is not None else self.store.inputs(job_id)
@@ -292,7 +315,8 @@ class JobManager:
             raise
         except Exception as exc:
             log.error("stored input unreadable: %s", exc, extra={"job_id": job_id})
-            self._write("fail", self.store.fail, job_id, f"its stored input cannot be read: {exc}")
+            reason = f"its stored input cannot be read: {exc}"
+            self._write("fail", self.store.fail, job_id, reason, FailureKind.internal)
             return False
         if payload is None:  # purged meanwhile
             return False
@@ -308,7 +332,7 @@ class JobManager:
             self._owners.pop(job_id, None)
             reason = f"the job could not be handed to a worker: {type(exc).__name__}: {exc}"
             log.error(reason, extra={"job_id": job_id})
-            self._write("fail", self.store.fail, job_id, reason)
+            self._write("fail", self.store.fail, job_id, reason, FailureKind.internal)
             return False
         return True
 
@@ -357,12 +381,13 @@ class JobManager:
             else:
                 reason = f"{outcome.reason} (attempt {attempt} of {self.settings.max_attempts})"
                 log.error("job failed: %s", reason, extra=extra)
-                self._write("fail", self.store.fail, job_id, reason)
+                self._write("fail", self.store.fail, job_id, reason, FailureKind.crashed)
         elif outcome.kind is OutcomeKind.cancelled:
             log.info("job stopped", extra=extra)
         else:
             log.warning("job failed: %s", outcome.reason, extra=extra)
-            self._write("fail", self.store.fail, job_id, outcome.reason)
+            kind = outcome.failure or _FAILURES.get(outcome.kind, FailureKind.internal)
+            self._write("fail", self.store.fail, job_id, outcome.reason, kind)
 
     async def _succeeded(self, job_id: str, process: str, outcome: Outcome) -> None:
         data = outcome.data or b""

@@ -24,9 +24,11 @@ from .store import (
     JobRecord,
     JobStatus,
     NewJob,
+    StoreCorrupt,
     StoreError,
     StoreUnavailable,
 )
+from .task import decode_inputs, encode_inputs
 
 __all__ = ["MemoryJobStore", "MemoryTables"]
 
@@ -37,7 +39,7 @@ _UNFINISHED = frozenset({JobStatus.accepted, JobStatus.running})
 class _Row:
     seq: int
     record: JobRecord
-    inputs: bytes  #: JSON
+    inputs: bytes  #: as the SQLite store keeps them (:func:`~.task.encode_inputs`)
     idempotency_key: str | None
     request_hash: str | None
     subscriber: bytes = b""  #: JSON callback state, b"" when none
@@ -106,7 +108,7 @@ class MemoryJobStore:
         )
         t.seq += 1
         t.jobs[job.id] = _Row(
-            t.seq, record, _json(job.inputs), job.idempotency_key, job.request_hash
+            t.seq, record, encode_inputs(job.inputs), job.idempotency_key, job.request_hash
         )
         if job.idempotency_key is not None:
             t.keys[job.idempotency_key] = job.id
@@ -160,8 +162,10 @@ class MemoryJobStore:
         row = self._open().jobs.get(job_id)
         if row is None:
             return None
-        value: dict[str, Any] = json.loads(row.inputs)
-        return value
+        try:
+            return decode_inputs(row.inputs)
+        except ValueError as exc:
+            raise StoreCorrupt(f"the stored input of job {job_id} cannot be read: {exc}") from None
 
     def search(
         self,
@@ -266,12 +270,17 @@ class MemoryJobStore:
                 self.tables.results[job_id] = bytes(result)
         return done
 
-    def fail(self, job_id: str, reason: str) -> bool:
+    def fail(self, job_id: str, reason: str, kind: str = "") -> bool:
         return self._change(
             job_id,
             _UNFINISHED,
             lambda r, now: replace(
-                r, status=JobStatus.failed, message=reason, finished=now, updated=now
+                r,
+                status=JobStatus.failed,
+                message=reason,
+                failure=kind,
+                finished=now,
+                updated=now,
             ),
         )
 

@@ -12,7 +12,6 @@ import json
 import sqlite3
 import threading
 import time
-import zlib
 from collections.abc import Callable, Collection, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
@@ -30,6 +29,7 @@ from .store import (
     StoreCorrupt,
     StoreUnavailable,
 )
+from .task import decode_inputs, encode_inputs
 
 __all__ = ["SqliteJobStore"]
 
@@ -53,7 +53,8 @@ CREATE TABLE IF NOT EXISTS jobs (
     finished REAL,
     meta TEXT NOT NULL DEFAULT '{}',
     owner TEXT NOT NULL DEFAULT '',
-    subscriber TEXT NOT NULL DEFAULT ''
+    subscriber TEXT NOT NULL DEFAULT '',
+    failure TEXT NOT NULL DEFAULT ''
 );
 CREATE INDEX IF NOT EXISTS jobs_status ON jobs (status, seq);
 CREATE INDEX IF NOT EXISTS jobs_finished ON jobs (finished);
@@ -73,11 +74,15 @@ CREATE TABLE IF NOT EXISTS heartbeat (id INTEGER PRIMARY KEY CHECK (id = 1), at 
 
 _COLUMNS = (
     "id, process, status, created, updated, started, finished, progress, message, attempts, "
-    "seed, batch_id, meta, owner"
+    "seed, batch_id, meta, owner, failure"
 )
 #: Columns added since the first release, created on opening an older file.
 _ADDED = {
-    "jobs": {"owner": "TEXT NOT NULL DEFAULT ''", "subscriber": "TEXT NOT NULL DEFAULT ''"},
+    "jobs": {
+        "owner": "TEXT NOT NULL DEFAULT ''",
+        "subscriber": "TEXT NOT NULL DEFAULT ''",
+        "failure": "TEXT NOT NULL DEFAULT ''",
+    },
     "batches": {"owner": "TEXT NOT NULL DEFAULT ''"},
 }
 _UNFINISHED = (JobStatus.accepted.value, JobStatus.running.value)
@@ -87,12 +92,13 @@ T = TypeVar("T")
 
 def _record(row: sqlite3.Row | tuple[Any, ...]) -> JobRecord:
     (job_id, process, status, created, updated, started, finished, progress, message, attempts,
-     seed, batch_id, meta, owner) = row  # fmt: skip
+     seed, batch_id, meta, owner, failure) = row  # fmt: skip
     try:
         state = JobStatus(status)
     except ValueError:
         # A row this version did not write: shown as failed (with why), not an error of the list.
         state, message = JobStatus.failed, f"stored with an unknown status {status!r}"
+        failure = "internal-error"
     try:
         figures = json.loads(meta) if meta and meta != "{}" else {}
     except ValueError:
@@ -112,6 +118,7 @@ def _record(row: sqlite3.Row | tuple[Any, ...]) -> JobRecord:
         batch_id=batch_id,
         meta=figures if isinstance(figures, dict) else {},
         owner=owner,
+        failure=failure,
     )
 
 
@@ -139,14 +146,6 @@ _TRANSIENT = frozenset(
     getattr(sqlite3, name, -1)
     for name in ("SQLITE_FULL", "SQLITE_IOERR", "SQLITE_BUSY", "SQLITE_LOCKED", "SQLITE_CANTOPEN")
 )
-
-
-def _pack(obj: Any) -> bytes:
-    try:
-        text = orjson.dumps(obj)
-    except TypeError:  # what orjson refuses and json takes (integers past 64 bits)
-        text = json.dumps(obj, separators=(",", ":")).encode()
-    return zlib.compress(text, 1)
 
 
 class SqliteJobStore:
@@ -236,7 +235,7 @@ class SqliteJobStore:
                 job.id,
                 job.process,
                 JobStatus.accepted.value,
-                _pack(job.inputs),
+                encode_inputs(job.inputs),
                 job.seed,
                 job.batch_id,
                 job.idempotency_key,
@@ -313,12 +312,9 @@ class SqliteJobStore:
         if row is None:
             return None
         try:
-            value = json.loads(zlib.decompress(row[0]))
-        except (zlib.error, ValueError, RecursionError) as exc:
+            return decode_inputs(row[0])
+        except ValueError as exc:
             raise StoreCorrupt(f"the stored input of job {job_id} cannot be read: {exc}") from None
-        if not isinstance(value, dict):
-            raise StoreCorrupt(f"the stored input of job {job_id} is not an object")
-        return value
 
     @_translated
     def search(
@@ -425,12 +421,12 @@ class SqliteJobStore:
         return done > 0
 
     @_translated
-    def fail(self, job_id: str, reason: str) -> bool:
+    def fail(self, job_id: str, reason: str, kind: str = "") -> bool:
         now = self._clock()
         return self._update(
-            "UPDATE jobs SET status = 'failed', message = ?, finished = ?, updated = ?"
-            " WHERE id = ? AND status IN ('accepted', 'running')",
-            (reason, now, now, job_id),
+            "UPDATE jobs SET status = 'failed', message = ?, failure = ?, finished = ?,"
+            " updated = ? WHERE id = ? AND status IN ('accepted', 'running')",
+            (reason, kind, now, now, job_id),
         )
 
     @_translated

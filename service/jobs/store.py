@@ -69,7 +69,9 @@ class NewJob:
 
     id: str
     process: str
-    inputs: dict[str, Any]  #: resolved inputs, seed included: rerunning them gives the same mesh
+    #: resolved inputs, seed included (rerunning them gives the same mesh), or their stored
+    #: form already made (:func:`~service.jobs.task.encode_inputs`), kept as given
+    inputs: dict[str, Any] | bytes
     seed: int | None = None
     batch_id: str | None = None
     idempotency_key: str | None = None
@@ -95,6 +97,9 @@ class JobRecord:
     batch_id: str | None = None
     meta: dict[str, Any] = field(default_factory=dict)  #: result figures (e.g. triangles)
     owner: str = ""  #: who made it (a digest of the API key; "" without keys)
+    #: why a failed job failed (a :class:`~service.jobs.task.FailureKind` value); "" when not
+    #: failed or failed before kinds were kept (then its message tells)
+    failure: str = ""
 
 
 @dataclass(frozen=True)
@@ -157,8 +162,9 @@ class JobStore(Protocol):
     def finish(self, job_id: str, result: bytes, meta: dict[str, Any]) -> bool:
         """running -> successful, with the (compressed) result and its figures."""
 
-    def fail(self, job_id: str, reason: str) -> bool:
-        """accepted|running -> failed with ``reason`` as message."""
+    def fail(self, job_id: str, reason: str, kind: str = "") -> bool:
+        """accepted|running -> failed with ``reason`` as message and ``kind`` (a
+        :class:`~service.jobs.task.FailureKind` value) as its failure."""
 
     def requeue(self, job_id: str, message: str, *, keep_attempt: bool = True) -> bool:
         """running|accepted -> accepted (to run again); ``keep_attempt`` false forgets the start."""

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import enum
 import importlib
+import json
 import time
 import zlib
 from collections.abc import Callable
@@ -36,6 +37,7 @@ import orjson
 __all__ = [
     "PROGRESS_INTERVAL",
     "WORKER_MODULES",
+    "FailureKind",
     "Outcome",
     "OutcomeKind",
     "ProgressCallback",
@@ -43,6 +45,8 @@ __all__ = [
     "StopCallback",
     "Task",
     "TaskError",
+    "decode_inputs",
+    "encode_inputs",
     "error_outcome",
     "handover_failed",
     "pack",
@@ -78,7 +82,9 @@ class Task:
 
     job_id: str
     runner: str  #: ``"package.module:function"``, importable where the task runs
-    payload: dict[str, Any]
+    #: the inputs, or their stored form (:func:`encode_inputs`), decoded by :func:`run_task`
+    #: in the worker: a large payload crosses the pipe as bytes, not as a pickled tree
+    payload: dict[str, Any] | bytes
     attempt: int = 1
     timeout: float = 3600.0  #: seconds before the run is stopped and reported as timed out
 
@@ -91,6 +97,16 @@ class OutcomeKind(enum.StrEnum):
     cancelled = "cancelled"
 
 
+class FailureKind(enum.StrEnum):
+    """Why a job failed, kept with the job (the problem type a client is answered with)."""
+
+    invalid_input = "invalid-input"  #: a runner's TaskError: the input's fault, found late
+    internal = "internal-error"  #: a bug, or a hand-over/store failure of the service
+    crashed = "job-crashed"  #: the worker died on the last attempt allowed
+    timeout = "limit-exceeded"  #: over the job time limit
+    backend = "backend-unavailable"  #: the compute backend could not be reached
+
+
 @dataclass(frozen=True)
 class Outcome:
     """How a task ended."""
@@ -100,6 +116,7 @@ class Outcome:
     meta: dict[str, Any] = field(default_factory=dict)
     reason: str = ""  #: why, for everything but success
     seconds: float = 0.0  #: run time
+    failure: FailureKind | None = None  #: for an error: whose fault (default: internal)
 
 
 def resolve_runner(name: str) -> Runner:
@@ -141,8 +158,15 @@ def run_task(
     that looks at once). The supervisor words a stop it asked for (:func:`settle`).
     """
     t0 = time.perf_counter()
+    payload = task.payload
+    if isinstance(payload, bytes):
+        try:
+            payload = decode_inputs(payload)
+        except ValueError as exc:
+            reason = f"its stored input cannot be read: {exc}"
+            return Outcome(OutcomeKind.error, reason=reason, failure=FailureKind.internal)
     try:
-        data, meta = resolve_runner(task.runner)(task.payload, progress, should_stop)
+        data, meta = resolve_runner(task.runner)(payload, progress, should_stop)
     except Exception as exc:
         seconds = time.perf_counter() - t0
         if (stop_asked or should_stop)():
@@ -155,10 +179,11 @@ def error_outcome(exc: BaseException, seconds: float = 0.0) -> Outcome:
     """A run that raised ``exc``: a :class:`TaskError`'s message is for the user as it is;
     anything else is a bug, named with its type."""
     if isinstance(exc, TaskError):
-        reason = str(exc)
-    else:
-        reason = f"internal error: {type(exc).__name__}: {exc}"
-    return Outcome(OutcomeKind.error, reason=reason, seconds=seconds)
+        return Outcome(
+            OutcomeKind.error, reason=str(exc), seconds=seconds, failure=FailureKind.invalid_input
+        )
+    reason = f"internal error: {type(exc).__name__}: {exc}"
+    return Outcome(OutcomeKind.error, reason=reason, seconds=seconds, failure=FailureKind.internal)
 
 
 def stopped(kind: OutcomeKind, task: Task, seconds: float = 0.0) -> Outcome:
@@ -188,7 +213,38 @@ def handover_failed(exc: BaseException) -> Outcome:
     """A task that could not be handed to a worker (its payload cannot be pickled: too deep, a
     foreign object): the task's fault, so it never holds the worker."""
     reason = f"the task could not be handed to a worker: {type(exc).__name__}: {exc}"
-    return Outcome(OutcomeKind.error, reason=reason)
+    return Outcome(OutcomeKind.error, reason=reason, failure=FailureKind.internal)
+
+
+# -- the stored form of a job's inputs ---------------------------------------------------------
+def encode_inputs(inputs: dict[str, Any] | bytes) -> bytes:
+    """A job's inputs as every store keeps them and a worker receives them: compact JSON
+    (``json`` for what orjson refuses: integers past 64 bits), zlib level 1; bytes are that
+    form already, made where the request was prepared (a body pool process, a thread) so that
+    the event loop never encodes a large request.
+
+    >>> decode_inputs(encode_inputs({"size": 0.1, "n": 2**70}))
+    {'size': 0.1, 'n': 1180591620717411303424}
+    """
+    if isinstance(inputs, bytes):
+        return inputs
+    try:
+        text = orjson.dumps(inputs)
+    except TypeError:
+        text = json.dumps(inputs, separators=(",", ":")).encode()
+    return zlib.compress(text, 1)
+
+
+def decode_inputs(data: bytes) -> dict[str, Any]:
+    """The inverse of :func:`encode_inputs`; :class:`ValueError` when ``data`` is not that."""
+    try:
+        # json, not orjson: orjson reads an integer past 64 bits as a float
+        value = json.loads(zlib.decompress(data))
+    except (zlib.error, ValueError, RecursionError) as exc:
+        raise ValueError(str(exc) or type(exc).__name__) from None
+    if not isinstance(value, dict):
+        raise ValueError("it is not a JSON object")
+    return value
 
 
 # -- the stored form of a result document ------------------------------------------------------

@@ -12,7 +12,7 @@ from __future__ import annotations
 import secrets
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any, Protocol, Self
 
 from pydantic import BaseModel
@@ -23,7 +23,7 @@ from engine.pipeline import STAGE_WEIGHTS, job_progress
 
 from ..document import mesh_from_document
 from ..inputs import ExecuteRequest, MeshDocumentInput, SmoothingInput
-from ..jobs.task import ProgressCallback, TaskError, pack
+from ..jobs.task import ProgressCallback, TaskError, encode_inputs, pack
 from ..problems import Problem
 from ..settings import Settings
 
@@ -40,6 +40,7 @@ __all__ = [
     "count_rings",
     "inputs_at",
     "mesh_only",
+    "prepare_stored",
     "run_task",
     "smoothing_from_json",
     "smoothing_json",
@@ -78,7 +79,9 @@ class Request(Protocol):
 class Prepared:
     """A validated request, ready to store and run."""
 
-    inputs: dict[str, Any]  #: the typed request as JSON (defaults and seed filled in)
+    #: the typed request as JSON (defaults and seed filled in), or its stored form
+    #: (:func:`prepare_stored`)
+    inputs: dict[str, Any] | bytes
     seed: int | None
     triangles: int  #: estimated size of the result
 
@@ -86,6 +89,19 @@ class Prepared:
 def admitted(request: Request, triangles: int) -> Prepared:
     """A prepared request as the job store keeps it."""
     return Prepared(request.to_json(), request.seed, triangles)
+
+
+def prepare_stored(
+    prepare: Callable[[Any, Settings, Where], Prepared],
+    inputs: Any,
+    settings: Settings,
+    where: Where,
+) -> Prepared:
+    """``prepare(inputs, settings, where)`` with the inputs in the form the store keeps and a
+    worker decodes (bytes): run where the request is prepared (a body pool process, a thread),
+    so the event loop neither encodes them nor unpickles them as a tree of objects."""
+    prepared = prepare(inputs, settings, where)
+    return replace(prepared, inputs=encode_inputs(prepared.inputs))
 
 
 @dataclass(frozen=True)

@@ -19,6 +19,7 @@ from ..jobs.store import IdempotencyConflict, JobStatus
 from ..middleware import JsonBodyRoute, Then, problem_fields
 from ..problems import Problem, problem_for
 from ..processes import PROCESSES, Prepared, Process, inputs_at
+from ..processes.base import prepare_stored
 from ..schemas import ProcessDescription, ProcessList, StatusInfo
 from ..settings import Settings
 from ..sync import job_problem, output_format, preference, render_output, wait_final
@@ -177,10 +178,11 @@ def admit_body(
     body: ExecuteRequest,
 ) -> tuple[ExecuteRequest, Admission]:
     """Run in a body pool process after validation: the whole admission of an execute request
-    (parse, check the limits, estimate), so the event loop only writes the row. Returns the
-    request without its inputs (all the handler reads of it) and the :class:`Admission`."""
+    (parse, check the limits, estimate, encode the inputs as stored), so the event loop only
+    hands bytes on. Returns the request without its inputs (all the handler reads of it) and
+    the :class:`Admission`."""
     try:
-        prepared = prepare(body.inputs, settings, inputs_at("/inputs"))
+        prepared = prepare_stored(prepare, body.inputs, settings, inputs_at("/inputs"))
     except Exception as exc:
         problem = problem_for(exc)
         if problem.status >= 500:
@@ -239,7 +241,11 @@ def _execute_route(router: APIRouter, process: Process) -> None:
             prepared, digest = admitted.result(), admitted.digest
         else:
             prepared = await off_loop(
-                process.prepare, request_body.inputs, settings, inputs_at("/inputs")
+                prepare_stored,
+                process.prepare,
+                request_body.inputs,
+                settings,
+                inputs_at("/inputs"),
             )
             # The validated request (its depth bounded by the body reader), not the raw
             # bytes: the same JSON value in another key order is the same request.
@@ -249,7 +255,7 @@ def _execute_route(router: APIRouter, process: Process) -> None:
                 else None
             )
         try:
-            record, created = manager.submit(
+            record, created = await manager.submit(
                 process,
                 prepared,
                 idempotency_key=idempotency_key,

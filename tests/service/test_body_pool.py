@@ -3,7 +3,9 @@ service keeps answering meanwhile, and the client gets the same answers as from 
 
 from __future__ import annotations
 
+import json
 import math
+import zlib
 from typing import Any
 
 import anyio
@@ -11,9 +13,10 @@ import httpx
 import orjson
 import pytest
 
+from service.jobs.task import Task
 from service.routers import processes as processes_router
 
-from .conftest import ClientFactory, assert_problem
+from .conftest import ClientFactory, app_of, assert_problem, wait_for
 
 pytestmark = pytest.mark.anyio
 
@@ -189,3 +192,54 @@ async def test_a_large_body_is_admitted_in_the_pool_not_in_the_api_process(
     other = {"inputs": {**body["inputs"], "smoothing": {"method": "laplacian", "seed": 4}}}
     conflict = await client.post("/processes/smooth/execution", json=other, headers=key)
     assert_problem(conflict, 422)
+
+
+#: Bigger than any status answer or small encoding of the test, smaller than the body below.
+_LARGE = 256 * 1024
+
+
+async def test_a_large_accepted_body_is_neither_decoded_nor_encoded_in_the_api_process(
+    make_client: ClientFactory, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Admitted in the pool, a large request reaches the store and the worker as the bytes the
+    pool encoded: the API process runs no JSON or zlib codec on anything that large (the old
+    way: the store encoded the inputs on the event loop, the backend pickled them as a tree)."""
+    client = await make_client(body_workers=1, body_pool_bytes=0, backend="local")
+    body = orjson.dumps({"inputs": {"mesh": grid_mesh(150)}})
+    assert len(body) > 4 * _LARGE
+    large: list[tuple[str, int]] = []  # (codec, size) of each large call in this process
+
+    def counted(module: Any, name: str) -> None:
+        real = getattr(module, name)
+
+        def call(data: Any, *args: Any, **kwargs: Any) -> Any:
+            out = real(data, *args, **kwargs)
+            size = max(len(x) if isinstance(x, bytes | str) else 0 for x in (data, out))
+            if size > _LARGE:
+                large.append((f"{module.__name__}.{name}", size))
+            return out
+
+        monkeypatch.setattr(module, name, call)
+
+    for module, names in ((orjson, ("dumps", "loads")), (json, ("dumps", "loads"))):
+        for name in names:
+            counted(module, name)
+    for name in ("compress", "decompress"):
+        counted(zlib, name)
+    handed: list[type] = []
+    backend = app_of(client).state.manager.backend
+    submit = backend.submit
+
+    def hand(task: Task) -> None:
+        handed.append(type(task.payload))
+        submit(task)
+
+    monkeypatch.setattr(backend, "submit", hand)
+    r = await client.post(
+        "/processes/quality/execution", content=body, headers={"Content-Type": "application/json"}
+    )
+    assert r.status_code == 201, r.text
+    job = await wait_for(client, r.json()["jobID"])
+    assert job["status"] == "successful", job  # the worker decoded what it was handed
+    assert handed == [bytes]
+    assert large == []

@@ -27,7 +27,7 @@ import dask
 import distributed
 from distributed import Client, Event, Future, KilledWorker, as_completed
 
-from ..task import Outcome, OutcomeKind, Task, error_outcome, settle, stopped
+from ..task import FailureKind, Outcome, OutcomeKind, Task, error_outcome, settle, stopped
 from .dask_worker import TOPIC, Warmup, execute, is_warm, stop_name
 
 __all__ = ["DaskConnection", "DaskOptions"]
@@ -285,13 +285,15 @@ class DaskConnection:
             return
         waiting, self._waiting = self._waiting, []
         for run in waiting:
-            self._finish(run, Outcome(OutcomeKind.error, reason=self._unreachable()))
+            self._finish(run, self._unreachable())
 
-    def _unreachable(self) -> str:
-        return (
+    def _unreachable(self) -> Outcome:
+        """A run that ended without a scheduler to run it on: the backend's fault."""
+        reason = (
             f"the Dask scheduler at {self._address} has been unreachable for more than "
             f"{self.options.reconnect_timeout:g} s"
         )
+        return Outcome(OutcomeKind.error, reason=reason, failure=FailureKind.backend)
 
     async def _shutdown(self) -> None:
         if self._supervisor is not None:
@@ -351,7 +353,7 @@ class DaskConnection:
         elif self._lost_since is not None and (
             time.monotonic() - self._lost_since >= self.options.reconnect_timeout
         ):
-            self._finish(run, Outcome(OutcomeKind.error, reason=self._unreachable()))
+            self._finish(run, self._unreachable())
         else:
             self._waiting.append(run)
 

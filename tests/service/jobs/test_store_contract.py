@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 from service.jobs.memory import MemoryJobStore, MemoryTables
 from service.jobs.sqlite import SqliteJobStore
 from service.jobs.store import IdempotencyConflict, JobStatus, JobStore, NewJob, StoreError
+from service.jobs.task import encode_inputs
 
 
 class Clock:
@@ -124,10 +125,11 @@ def test_fail_and_requeue(store: JobStore) -> None:
     r = store.get("job-1")
     assert r is not None
     assert r.attempts == 1
-    assert store.fail("job-1", "worker died")
+    assert r.failure == ""
+    assert store.fail("job-1", "worker died", "job-crashed")
     r = store.get("job-1")
     assert r is not None
-    assert (r.status, r.message) == (JobStatus.failed, "worker died")
+    assert (r.status, r.message, r.failure) == (JobStatus.failed, "worker died", "job-crashed")
     assert store.result("job-1") is None
 
 
@@ -258,6 +260,45 @@ def test_inputs_keep_any_json_value(store: JobStore) -> None:
     assert store.inputs("j") == inputs
 
 
+def _stored_inputs(store: JobStore, job_id: str) -> bytes:
+    """The inputs of a job as the store keeps them."""
+    if isinstance(store, SqliteJobStore):
+        row = store._conn().execute("SELECT inputs FROM jobs WHERE id = ?", (job_id,)).fetchone()
+        return bytes(row[0])
+    assert isinstance(store, MemoryJobStore)
+    return store.tables.jobs[job_id].inputs
+
+
+def test_inputs_given_encoded_are_kept_as_the_store_would_encode_them(store: JobStore) -> None:
+    inputs = {"big": 10**30, "mesh": {"points": [[0.5, 1.25]] * 50, "triangles": [[0, 1, 2]]}}
+    store.create(NewJob("plain", "mesh", inputs))
+    store.create_batch("b", "mesh", [NewJob("encoded", "mesh", encode_inputs(inputs))])
+    assert store.inputs("encoded") == store.inputs("plain") == inputs
+    assert _stored_inputs(store, "encoded") == _stored_inputs(store, "plain")
+    assert _stored_inputs(store, "plain") == encode_inputs(inputs)
+
+
+def test_an_older_sqlite_file_gains_the_failure_kind(tmp_path: Path) -> None:
+    path = tmp_path / "jobs.sqlite3"
+    old = SqliteJobStore(path)
+    old.create(job(1))
+    old.fail("job-1", "stopped after exceeding the time limit of 2 s")
+    old._conn().execute("ALTER TABLE jobs DROP COLUMN failure")  # as a file before kinds
+    old.close()
+    store = SqliteJobStore(path)
+    try:
+        before = store.get("job-1")
+        assert before is not None
+        assert (before.status, before.failure) == (JobStatus.failed, "")
+        store.create(job(2))
+        assert store.fail("job-2", "the region is empty", "invalid-input")
+        after = store.get("job-2")
+        assert after is not None
+        assert after.failure == "invalid-input"
+    finally:
+        store.close()
+
+
 # -- every store behaves as the SQLite store, the reference --------------------------------------
 _IDS = st.sampled_from(["a", "b", "c", "d"])
 _OPERATIONS = st.one_of(
@@ -268,12 +309,13 @@ _OPERATIONS = st.one_of(
         st.sampled_from(["", "alice", "bob"]),
         st.none() | st.sampled_from(["k1", "k2"]),
         st.sampled_from(["h1", "h2"]),
+        st.booleans(),
     ),
     st.tuples(st.just("create_batch"), st.sampled_from(["b1", "b2"]), st.lists(_IDS, max_size=3)),
     st.tuples(st.just("mark_running"), _IDS, st.integers(1, 3)),
     st.tuples(st.just("set_progress"), _IDS, st.integers(-10, 120), st.sampled_from(["mesh", "x"])),
     st.tuples(st.just("finish"), _IDS, st.binary(max_size=4), st.sampled_from([{}, {"n": [1, 2]}])),
-    st.tuples(st.just("fail"), _IDS, st.just("broken")),
+    st.tuples(st.just("fail"), _IDS, st.just("broken"), st.sampled_from(["", "job-crashed"])),
     st.tuples(st.just("requeue"), _IDS, st.booleans()),
     st.tuples(st.just("dismiss"), _IDS),
     st.tuples(st.just("purge"), st.integers(0, 40)),
@@ -285,8 +327,9 @@ def _apply(store: JobStore, op: tuple[Any, ...]) -> object:
     name, *args = op
     try:
         if name == "create":
-            job_id, process, owner, key, digest = args
-            new = NewJob(job_id, process, {"id": job_id}, 1, None, key, digest, owner)
+            job_id, process, owner, key, digest, encoded = args
+            inputs = encode_inputs({"id": job_id}) if encoded else {"id": job_id}
+            new = NewJob(job_id, process, inputs, 1, None, key, digest, owner)
             return store.create(new)
         if name == "create_batch":
             batch_id, ids = args

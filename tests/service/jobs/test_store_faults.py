@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 from service.jobs.sqlite import SqliteJobStore
 from service.jobs.store import StoreCorrupt, StoreUnavailable
 
-from ..conftest import SQUARE, ClientFactory, assert_problem, submit, wait_for
+from ..conftest import SQUARE, ClientFactory, app_of, assert_problem, submit, wait_for
 
 pytestmark = pytest.mark.anyio
 
@@ -215,3 +215,28 @@ async def test_a_full_disk_is_503_then_jobs_complete_when_space_is_back(
         assert all(r.status.value in {"successful", "failed"} for r in records), records
         await client.app.state.manager.close()  # type: ignore[attr-defined]
         client.app.state.manager = None  # type: ignore[attr-defined]
+
+
+async def test_a_job_written_while_the_service_stops_is_left_for_the_next_start(
+    make_client: ClientFactory, tmp_path: Path
+) -> None:
+    """The row of a job is written in a thread; a service that began stopping meanwhile does
+    not hand it to a closing backend (which would fail it) but leaves it accepted."""
+    data = tmp_path / "sqlite"
+    client = await make_client(data_dir=data)
+    manager = app_of(client).state.manager
+    create = manager.store.create
+
+    def create_while_stopping(job: Any) -> Any:
+        manager._closing = True  # the service began stopping during the write
+        return create(job)
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(manager.store, "create", create_while_stopping)
+        job = await submit(client, "sleep", {"seconds": 0})
+    manager._closing = False
+    assert (await client.get(f"/jobs/{job['jobID']}")).json()["status"] == "accepted"
+    assert manager.waiting == 0  # nothing was handed to the backend
+    restarted = await make_client(data_dir=data)  # its start recovers the job
+    done = await wait_for(restarted, job["jobID"])
+    assert done["status"] == "successful", done

@@ -10,7 +10,9 @@ import httpx
 import meshio
 import pytest
 
+from service.jobs.store import JobRecord, JobStatus
 from service.jobs.task import Task
+from service.sync import job_problem
 
 from ..conftest import SQUARE, app_of, assert_problem, wait_for
 
@@ -138,6 +140,9 @@ async def _sync_failure(
     assert doc["detail"].startswith("the job failed") or status == 410
     job = await wait_for(client, doc["jobID"])
     assert job["status"] in {"failed", "dismissed"}
+    if status != 410:  # the kind is kept with the job, set from how its run ended
+        record = app_of(client).state.manager.store.get(doc["jobID"])
+        assert record.failure == kind
     return doc
 
 
@@ -180,3 +185,31 @@ async def test_a_job_dismissed_within_the_wait_is_a_410(client: httpx.AsyncClien
     async with anyio.create_task_group() as tg:
         tg.start_soon(dismiss_when_running)
         await _sync_failure(client, "sleep", {"seconds": 30}, 410, "job-dismissed")
+
+
+def _failed(message: str, failure: str = "") -> JobRecord:
+    return JobRecord("j", "mesh", JobStatus.failed, 1.0, 2.0, message=message, failure=failure)
+
+
+def test_the_kept_kind_names_the_problem_whatever_the_message_says() -> None:
+    # A runner's own words that look like the service's: the kind decides, not the words.
+    problem = job_problem("http://x", _failed("internal error: the ring is open", "invalid-input"))
+    assert (problem.status, problem.kind) == (422, "invalid-input")
+    problem = job_problem("http://x", _failed("the region is empty", "backend-unavailable"))
+    assert (problem.status, problem.kind) == (503, "backend-unavailable")
+
+
+@pytest.mark.parametrize(
+    ("message", "status", "kind"),
+    [
+        ("stopped after exceeding the time limit of 2 s", 422, "limit-exceeded"),
+        ("the worker process was killed by SIGKILL (attempt 3 of 3)", 500, "job-crashed"),
+        ("internal error: ZeroDivisionError: division by zero", 500, "internal-error"),
+        ("the boundary crosses itself", 422, "invalid-input"),
+    ],
+)
+def test_a_job_stored_without_a_kind_is_named_by_its_message(
+    message: str, status: int, kind: str
+) -> None:
+    problem = job_problem("http://x", _failed(message))
+    assert (problem.status, problem.kind) == (status, kind)
