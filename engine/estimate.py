@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .boundary import Region
-from .conetree import build_boxes, slots_meeting
+from .conetree import _bound, _cone, build_boxes, slots_meeting
 from .errors import Cancelled
 from .gaps import ring_segments
 from .result import ProgressFn, StopFn
@@ -42,6 +42,12 @@ EQUILATERAL_AREA = math.sqrt(3.0) / 4.0
 _STACK = 128
 #: Quadtree leaves counted between two looks at the cap.
 _CHUNK = 1 << 14
+#: A piece of a boundary segment is counted whole once the field's least and greatest possible
+#: sizes on it are within this fraction.
+_NODE_TOL = 0.01
+#: ... and only tested when longer than this many local sizes (shorter ones are halved at
+#: once: two tree walks cost more than the few lookups they could save).
+_TESTED = 8.0
 
 
 def _no_progress(stage: str, fraction: float) -> None:
@@ -53,34 +59,119 @@ def _never() -> bool:
 
 
 @nb.njit(cache=True)
+def _at_least(
+    sf: SizeTuple, box: tuple[float, float, float, float], floor: float
+) -> bool:  # pragma: no cover - compiled
+    """Whether the size field is at least ``floor`` everywhere in ``box`` (x0, y0, x1, y1): no
+    node of the cone tree, nor feature, can ask for less there (each grows away from its box
+    by its slope). Stops at the first that can."""
+    if floor <= sf.size_min:
+        return True
+    if floor > sf.size or sf.hmin.shape[0] == 0:
+        return floor <= sf.size
+    x0, y0, x1, y1 = box
+    stack = np.empty(_STACK, dtype=np.int64)
+    stack[0] = 0
+    top = 1
+    while top > 0:
+        top -= 1
+        node = stack[top]
+        dx = max(sf.box[node, 0] - x1, 0.0, x0 - sf.box[node, 2])
+        dy = max(sf.box[node, 1] - y1, 0.0, y0 - sf.box[node, 3])
+        if sf.hmin[node] + sf.smin[node] * math.sqrt(dx * dx + dy * dy) >= floor:
+            continue
+        if sf.child[node, 0] >= 0:
+            stack[top], stack[top + 1] = sf.child[node, 0], sf.child[node, 1]
+            top += 2
+            continue
+        for f in range(sf.span[node, 0], sf.span[node, 1]):
+            fx0, fx1 = min(sf.fa[f, 0], sf.fb[f, 0]), max(sf.fa[f, 0], sf.fb[f, 0])
+            fy0, fy1 = min(sf.fa[f, 1], sf.fb[f, 1]), max(sf.fa[f, 1], sf.fb[f, 1])
+            dx = max(fx0 - x1, 0.0, x0 - fx1)
+            dy = max(fy0 - y1, 0.0, y0 - fy1)
+            low = min(sf.ha[f], sf.hb[f]) + sf.fslope[f] * math.sqrt(dx * dx + dy * dy)
+            if low < floor:
+                return False
+    return True
+
+
+@nb.njit(cache=True)
+def _at_most(
+    sf: SizeTuple, ax: float, ay: float, bx: float, by: float
+) -> float:  # pragma: no cover - compiled
+    """A size the field does not exceed anywhere on the segment ``a -> b``: the least over the
+    features of the larger of their cones at its ends (a cone is convex along a line, so it
+    peaks at an end)."""
+    best = sf.size
+    stack = np.empty(_STACK, dtype=np.int64)
+    stack[0] = 0
+    top = 1 if sf.hmin.shape[0] else 0
+    while top > 0:
+        top -= 1
+        node = stack[top]
+        if max(_bound(ax, ay, sf, node), _bound(bx, by, sf, node)) >= best:
+            continue
+        if sf.child[node, 0] >= 0:
+            stack[top], stack[top + 1] = sf.child[node, 0], sf.child[node, 1]
+            top += 2
+            continue
+        for f in range(sf.span[node, 0], sf.span[node, 1]):
+            best = min(best, max(_cone(ax, ay, sf, f), _cone(bx, by, sf, f)))
+    return max(best, sf.size_min)
+
+
+@nb.njit(cache=True)
 def boundary_nodes(
     a: FloatArray, b: FloatArray, nxt: IntArray, sf: SizeTuple, cap: float
-) -> float:  # pragma: no cover - compiled
+) -> tuple[float, int]:  # pragma: no cover - compiled
     """Nodes the discretisation puts on segments ``a[i] -> b[i] = a[nxt[i]]`` (their starts
-    included), in steps of the local size (it changes by at most ``slope`` a step); stops past
-    ``cap``. The size at each vertex is taken once, for both segments that meet there."""
+    included), the integral of ``1 / h`` along each, rounded; stops past ``cap``. Also returns
+    the size lookups and box tests it took.
+
+    A piece of a segment is counted by the trapezoid rule on its ends' sizes once it is at most
+    one local size long, or once the field is known to stay within ``_NODE_TOL`` on it: below
+    :func:`_at_most` and, by :func:`_at_least`, above ``1 - _NODE_TOL`` of that. Other pieces
+    are halved (untested when under ``_TESTED`` sizes long), so a long side where a gap asks
+    for a constant size costs a few lookups, not one per node (a 1e-6-wide spike: 318 instead
+    of 8.4 million)."""
     at_vertex = np.empty(a.shape[0])
     for i in range(a.shape[0]):
         at_vertex[i] = size_field_at(sf, a[i, 0], a[i, 1])
+    work = a.shape[0]
+    pieces = np.empty((_STACK, 4))  # t0, t1, h(t0), h(t1)
     total = 0.0
     for i in range(a.shape[0]):
         ax, ay, bx, by = a[i, 0], a[i, 1], b[i, 0], b[i, 1]
         length = math.hypot(bx - ax, by - ay)
-        h_prev = at_vertex[i]
-        t, cum = 0.0, 0.0
-        while t < 1.0 and total + cum <= cap:
-            step = min(h_prev / length, 1.0 - t)
-            t += step
-            if t >= 1.0:
-                h = at_vertex[nxt[i]]
-            else:
-                h = size_field_at(sf, ax + t * (bx - ax), ay + t * (by - ay))
-            cum += 0.5 * (1.0 / h + 1.0 / h_prev) * step * length
-            h_prev = h
+        pieces[0] = (0.0, 1.0, at_vertex[i], at_vertex[nxt[i]])
+        top = 1
+        cum = 0.0
+        while top > 0 and total + cum <= cap:
+            top -= 1
+            t0, t1, h0, h1 = pieces[top]
+            span = (t1 - t0) * length
+            done = span <= min(h0, h1) or top + 2 > _STACK
+            if not done and span > _TESTED * min(h0, h1):
+                px, py = ax + t0 * (bx - ax), ay + t0 * (by - ay)
+                qx, qy = ax + t1 * (bx - ax), ay + t1 * (by - ay)
+                high = _at_most(sf, px, py, qx, qy)
+                box = (min(px, qx), min(py, qy), max(px, qx), max(py, qy))
+                work += 2
+                done = _at_least(sf, box, (1.0 - _NODE_TOL) * high)
+            if done:
+                cum += 0.5 * (1.0 / h0 + 1.0 / h1) * span
+                continue
+            tm = 0.5 * (t0 + t1)
+            hm = size_field_at(sf, ax + tm * (bx - ax), ay + tm * (by - ay))
+            work += 1
+            # The far half below, so pieces are counted from the segment's start.
+            pieces[top] = (tm, t1, hm, h1)
+            pieces[top + 1] = (t0, tm, h0, hm)
+            top += 2
         total += max(round(cum), 1)
         if total > cap:
             break
-    return total
+    return total, work
 
 
 class _Segments(NamedTuple):
@@ -368,7 +459,7 @@ def estimate_triangles(
     if area_low > limit:
         return math.ceil(area_low)
     a, b, _, nxt = ring_segments(region)
-    nodes = boundary_nodes(a, b, nxt, field.as_tuple(), limit)
+    nodes, _ = boundary_nodes(a, b, nxt, field.as_tuple(), limit)
     if nodes > limit or area_low + _PER_NODE * nodes > limit:
         return round(max(nodes, area_low + _PER_NODE * nodes))  # at least this many triangles
     holes = len(region.rings) - len(region.parts)
