@@ -7,6 +7,7 @@ with the configured limits, so it must be fast (no meshing) and follow the real 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import NamedTuple
 
@@ -21,7 +22,7 @@ from .gaps import ring_segments
 from .result import ProgressFn, StopFn
 from .sizing import SizeField, SizeTuple, size_field_at
 
-__all__ = ["EQUILATERAL_AREA", "boundary_nodes", "estimate_triangles"]
+__all__ = ["EQUILATERAL_AREA", "boundary_nodes", "estimate_triangles", "front_slope"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -48,6 +49,13 @@ _NODE_TOL = 0.01
 #: ... and only tested when longer than this many local sizes (shorter ones are halved at
 #: once: two tree walks cost more than the few lookups they could save).
 _TESTED = 8.0
+#: The front sizes each row from the field about a row ahead and can only lengthen its edges
+#: row by row, so where the field asks to grade steeply (slope ``growth - 1`` above 0.2) it
+#: grades more slowly: the slope it reaches, measured as the one whose estimate is closest to
+#: the real count over the benchmark set at growth 1.3, 1.5, 2 and 3 (linear in between,
+#: constant past the last).
+_FRONT_ASKED = np.array([0.0, 0.2, 0.3, 0.5, 1.0, 2.0])
+_FRONT_REACHED = np.array([0.0, 0.2, 0.24, 0.36, 0.45, 0.55])
 
 
 def _no_progress(stage: str, fraction: float) -> None:
@@ -358,6 +366,28 @@ def _leaf_share(
     return share * (cell * cell / EQUILATERAL_AREA)
 
 
+def front_slope(slope: FloatArray) -> FloatArray:
+    """The slope the front achieves where the field asks for ``slope`` (``growth - 1``).
+
+    >>> front_slope(np.array([0.1, 0.2, 0.5, 1.0, 4.0])).round(3).tolist()
+    [0.1, 0.2, 0.36, 0.45, 0.55]
+    """
+    asked = np.asarray(slope, np.float64)
+    return np.minimum(asked, np.interp(asked, _FRONT_ASKED, _FRONT_REACHED))
+
+
+def _as_the_front_grades(field: SizeField) -> SizeField:
+    """``field`` with each feature's slope replaced by what the front achieves."""
+    t = field.tree
+    fslope = front_slope(t.fslope)
+    slope = float(front_slope(np.array(t.slope)))
+    if slope == t.slope and np.array_equal(fslope, t.fslope):
+        return field
+    # The slope is increasing in what is asked, so a node's least slope maps to its least.
+    tree = t._replace(slope=slope, fslope=fslope, smin=front_slope(t.smin))
+    return dataclasses.replace(field, tree=tree)
+
+
 def _area_integral(
     region: Region, field: SizeField, max_cells: int, cap: float, should_stop: StopFn
 ) -> FloatArray:
@@ -466,6 +496,7 @@ def estimate_triangles(
     edge = nodes - 2 * len(region.parts) + 2 * holes
     progress("estimate", 0.5)
     # The area term passes the cap once the weighted integrals pass this.
-    sums = _area_integral(region, field, max_cells, limit - _PER_NODE * nodes, should_stop)
+    graded = _as_the_front_grades(field)
+    sums = _area_integral(region, graded, max_cells, limit - _PER_NODE * nodes, should_stop)
     progress("estimate", 1.0)
     return round(max(float(sums @ _WEIGHTS) + _PER_NODE * nodes, edge))

@@ -177,6 +177,48 @@ def test_a_densely_digitised_ellipse_is_estimated_within_a_tenth(
     assert 0.9 * mesh.n_triangles <= estimate <= 1.1 * mesh.n_triangles
 
 
+@settings(max_examples=8, deadline=None)
+@given(
+    vertices=st.integers(300, 1_500),
+    aspect=st.floats(0.4, 1.0),
+    size_over_spacing=st.floats(5.0, 60.0),
+    growth=st.sampled_from([1.3, 1.5, 2.0]),
+)
+def test_a_steeply_graded_ellipse_is_estimated_as_the_front_grades(
+    vertices: int, aspect: float, size_over_spacing: float, growth: float
+) -> None:
+    # The front grades more slowly than a steep field asks; counted at the field's own slope
+    # the estimate was 0.93 of the real count at growth 1.3, 0.68 at 1.5 and 0.26 at 2 (a
+    # 1,500-vertex circle). Growth 1.3 is where the front's own count jumps (a 2,000-vertex
+    # ellipse: 26,360 triangles at 1.25, 27,152 at 1.3, 17,268 at 1.35), so it gets 20%.
+    region = _ellipse(vertices, 50.0, 50.0 * aspect)
+    spacing = region.to_shapely().length / vertices
+    sizing = SizingParams(size=size_over_spacing * spacing, growth=growth)
+    estimate = estimate_triangles(region, build_size_field(region, sizing))
+    mesh, _ = mesh_region(region, sizing)
+    tolerance = 0.2 if growth == 1.3 else 0.15
+    assert abs(estimate / mesh.n_triangles - 1.0) <= tolerance
+
+
+@pytest.mark.parametrize("growth", [1.5, 2.0])
+@pytest.mark.parametrize(
+    ("region", "size"),
+    [
+        (_spike(0.01), 0.5),
+        (make_region([([[0, 0], [1, 0], [1, 0.001], [1, 1], [0, 1]], [])]), 0.05),
+    ],
+    ids=["spike-1e-2", "short-segment"],
+)
+def test_steep_growth_is_estimated_within_fifteen_percent(
+    region: Region, size: float, growth: float
+) -> None:
+    # At the field's own slope: 0.65 and 0.96 at growth 1.5, 0.56 and 0.96 at 2.
+    sizing = SizingParams(size=size, growth=growth)
+    estimate = estimate_triangles(region, build_size_field(region, sizing))
+    mesh, _ = mesh_region(region, sizing)
+    assert 0.85 * mesh.n_triangles <= estimate <= 1.15 * mesh.n_triangles
+
+
 @settings(max_examples=15, deadline=None)
 @given(
     log_width=st.floats(-6.0, -1.5),
