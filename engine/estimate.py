@@ -66,65 +66,57 @@ def _never() -> bool:
     return False
 
 
-@nb.njit(cache=True)
-def _at_least(
-    sf: SizeTuple, box: tuple[float, float, float, float], floor: float
-) -> bool:  # pragma: no cover - compiled
-    """Whether the size field is at least ``floor`` everywhere in ``box`` (x0, y0, x1, y1): no
-    node of the cone tree, nor feature, can ask for less there (each grows away from its box
-    by its slope). Stops at the first that can."""
-    if floor <= sf.size_min:
-        return True
-    if floor > sf.size or sf.hmin.shape[0] == 0:
-        return floor <= sf.size
-    x0, y0, x1, y1 = box
-    stack = np.empty(_STACK, dtype=np.int64)
-    stack[0] = 0
-    top = 1
-    while top > 0:
-        top -= 1
-        node = stack[top]
-        dx = max(sf.box[node, 0] - x1, 0.0, x0 - sf.box[node, 2])
-        dy = max(sf.box[node, 1] - y1, 0.0, y0 - sf.box[node, 3])
-        if sf.hmin[node] + sf.smin[node] * math.sqrt(dx * dx + dy * dy) >= floor:
-            continue
-        if sf.child[node, 0] >= 0:
-            stack[top], stack[top + 1] = sf.child[node, 0], sf.child[node, 1]
-            top += 2
-            continue
-        for f in range(sf.span[node, 0], sf.span[node, 1]):
-            fx0, fx1 = min(sf.fa[f, 0], sf.fb[f, 0]), max(sf.fa[f, 0], sf.fb[f, 0])
-            fy0, fy1 = min(sf.fa[f, 1], sf.fb[f, 1]), max(sf.fa[f, 1], sf.fb[f, 1])
-            dx = max(fx0 - x1, 0.0, x0 - fx1)
-            dy = max(fy0 - y1, 0.0, y0 - fy1)
-            low = min(sf.ha[f], sf.hb[f]) + sf.fslope[f] * math.sqrt(dx * dx + dy * dy)
-            if low < floor:
-                return False
-    return True
-
-
-@nb.njit(cache=True)
-def _at_most(
-    sf: SizeTuple, ax: float, ay: float, bx: float, by: float
+@nb.njit(cache=True, inline="always")
+def _box_gap(
+    x0: float, y0: float, x1: float, y1: float, box: tuple[float, float, float, float]
 ) -> float:  # pragma: no cover - compiled
-    """A size the field does not exceed anywhere on the segment ``a -> b``: the least over the
+    """Distance between the box ``x0, y0, x1, y1`` and ``box``."""
+    dx = max(x0 - box[2], 0.0, box[0] - x1)
+    dy = max(y0 - box[3], 0.0, box[1] - y1)
+    return math.sqrt(dx * dx + dy * dy)
+
+
+@nb.njit(cache=True)
+def _field_on(
+    sf: SizeTuple, px: float, py: float, qx: float, qy: float, floor: float
+) -> float:  # pragma: no cover - compiled
+    """Bounds of the size field on the segment ``p -> q``, by one walk of the cone tree.
+
+    ``floor <= 0``: a size the field does not exceed anywhere on it, the least over the
     features of the larger of their cones at its ends (a cone is convex along a line, so it
-    peaks at an end)."""
-    best = sf.size
+    peaks at an end). ``floor > 0``: ``floor`` if no node or feature can ask for less anywhere
+    in the segment's box (each grows away from its box by its slope), else the first lower
+    value found."""
+    upper = floor <= 0.0
+    best = sf.size if upper else floor
+    box = (min(px, qx), min(py, qy), max(px, qx), max(py, qy))
     stack = np.empty(_STACK, dtype=np.int64)
     stack[0] = 0
     top = 1 if sf.hmin.shape[0] else 0
     while top > 0:
         top -= 1
         node = stack[top]
-        if max(_bound(ax, ay, sf, node), _bound(bx, by, sf, node)) >= best:
+        if upper:
+            bound = max(_bound(px, py, sf, node), _bound(qx, qy, sf, node))
+        else:
+            nb_ = sf.box[node]
+            gap = _box_gap(nb_[0], nb_[1], nb_[2], nb_[3], box)
+            bound = sf.hmin[node] + sf.smin[node] * gap
+        if bound >= best:
             continue
         if sf.child[node, 0] >= 0:
             stack[top], stack[top + 1] = sf.child[node, 0], sf.child[node, 1]
             top += 2
             continue
         for f in range(sf.span[node, 0], sf.span[node, 1]):
-            best = min(best, max(_cone(ax, ay, sf, f), _cone(bx, by, sf, f)))
+            if upper:
+                best = min(best, max(_cone(px, py, sf, f), _cone(qx, qy, sf, f)))
+                continue
+            ax, ay, bx, by = sf.fa[f, 0], sf.fa[f, 1], sf.fb[f, 0], sf.fb[f, 1]
+            gap = _box_gap(min(ax, bx), min(ay, by), max(ax, bx), max(ay, by), box)
+            low = min(sf.ha[f], sf.hb[f]) + sf.fslope[f] * gap
+            if low < floor:
+                return low
     return max(best, sf.size_min)
 
 
@@ -138,7 +130,7 @@ def boundary_nodes(
 
     A piece of a segment is counted by the trapezoid rule on its ends' sizes once it is at most
     one local size long, or once the field is known to stay within ``_NODE_TOL`` on it: below
-    :func:`_at_most` and, by :func:`_at_least`, above ``1 - _NODE_TOL`` of that. Other pieces
+    the upper bound of :func:`_field_on` and above ``1 - _NODE_TOL`` of that. Other pieces
     are halved (untested when under ``_TESTED`` sizes long), so a long side where a gap asks
     for a constant size costs a few lookups, not one per node (a 1e-6-wide spike: 318 instead
     of 8.4 million)."""
@@ -162,10 +154,9 @@ def boundary_nodes(
             if not done and span > _TESTED * min(h0, h1):
                 px, py = ax + t0 * (bx - ax), ay + t0 * (by - ay)
                 qx, qy = ax + t1 * (bx - ax), ay + t1 * (by - ay)
-                high = _at_most(sf, px, py, qx, qy)
-                box = (min(px, qx), min(py, qy), max(px, qx), max(py, qy))
+                floor = (1.0 - _NODE_TOL) * _field_on(sf, px, py, qx, qy, 0.0)
                 work += 2
-                done = _at_least(sf, box, (1.0 - _NODE_TOL) * high)
+                done = floor <= sf.size_min or _field_on(sf, px, py, qx, qy, floor) >= floor
             if done:
                 cum += 0.5 * (1.0 / h0 + 1.0 / h1) * span
                 continue

@@ -93,12 +93,17 @@ def test_the_nodes_along_a_one_micron_spike_are_counted_in_a_few_lookups() -> No
     assert work < 5_000
 
 
+def _spikes(log_width_min: float) -> dict[str, st.SearchStrategy[float]]:
+    """Strategies for :func:`_spike`'s width (as a power of ten), length and angle."""
+    return {
+        "log_width": st.floats(log_width_min, -1.5),
+        "length": st.floats(0.05, 1.0),
+        "angle": st.floats(30.0, 150.0),
+    }
+
+
 @settings(max_examples=10, deadline=None)
-@given(
-    log_width=st.floats(-4.0, -1.5),
-    length=st.floats(0.05, 1.0),
-    angle=st.floats(30.0, 150.0),
-)
+@given(**_spikes(-4.0))
 def test_boundary_nodes_integrate_one_over_the_size(
     log_width: float, length: float, angle: float
 ) -> None:
@@ -220,11 +225,7 @@ def test_steep_growth_is_estimated_within_fifteen_percent(
 
 
 @settings(max_examples=15, deadline=None)
-@given(
-    log_width=st.floats(-6.0, -1.5),
-    length=st.floats(0.05, 1.0),
-    angle=st.floats(30.0, 150.0),
-)
+@given(**_spikes(-6.0))
 def test_random_thin_features_cost_bounded_work(
     log_width: float, length: float, angle: float
 ) -> None:
