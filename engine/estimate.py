@@ -7,6 +7,7 @@ with the configured limits, so it must be fast (no meshing) and follow the real 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import NamedTuple
 
@@ -15,13 +16,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .boundary import Region
-from .conetree import build_boxes, slots_meeting
+from .conetree import _bound, _cone, build_boxes, slots_meeting
 from .errors import Cancelled
 from .gaps import ring_segments
 from .result import ProgressFn, StopFn
 from .sizing import SizeField, SizeTuple, size_field_at
 
-__all__ = ["EQUILATERAL_AREA", "boundary_nodes", "estimate_triangles"]
+__all__ = ["EQUILATERAL_AREA", "boundary_nodes", "estimate_triangles", "front_slope"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -42,6 +43,19 @@ EQUILATERAL_AREA = math.sqrt(3.0) / 4.0
 _STACK = 128
 #: Quadtree leaves counted between two looks at the cap.
 _CHUNK = 1 << 14
+#: A piece of a boundary segment is counted whole once the field's least and greatest possible
+#: sizes on it are within this fraction.
+_NODE_TOL = 0.01
+#: ... and only tested when longer than this many local sizes (shorter ones are halved at
+#: once: two tree walks cost more than the few lookups they could save).
+_TESTED = 8.0
+#: The front sizes each row from the field about a row ahead and can only lengthen its edges
+#: row by row, so where the field asks to grade steeply (slope ``growth - 1`` above 0.2) it
+#: grades more slowly: the slope it reaches, measured as the one whose estimate is closest to
+#: the real count over the benchmark set at growth 1.3, 1.5, 2 and 3 (linear in between,
+#: constant past the last).
+_FRONT_ASKED = np.array([0.0, 0.2, 0.3, 0.5, 1.0, 2.0])
+_FRONT_REACHED = np.array([0.0, 0.2, 0.24, 0.36, 0.45, 0.55])
 
 
 def _no_progress(stage: str, fraction: float) -> None:
@@ -52,35 +66,111 @@ def _never() -> bool:
     return False
 
 
+@nb.njit(cache=True, inline="always")
+def _box_gap(
+    x0: float, y0: float, x1: float, y1: float, box: tuple[float, float, float, float]
+) -> float:  # pragma: no cover - compiled
+    """Distance between the box ``x0, y0, x1, y1`` and ``box``."""
+    dx = max(x0 - box[2], 0.0, box[0] - x1)
+    dy = max(y0 - box[3], 0.0, box[1] - y1)
+    return math.sqrt(dx * dx + dy * dy)
+
+
+@nb.njit(cache=True)
+def _field_on(
+    sf: SizeTuple, px: float, py: float, qx: float, qy: float, floor: float
+) -> float:  # pragma: no cover - compiled
+    """Bounds of the size field on the segment ``p -> q``, by one walk of the cone tree.
+
+    ``floor <= 0``: a size the field does not exceed anywhere on it, the least over the
+    features of the larger of their cones at its ends (a cone is convex along a line, so it
+    peaks at an end). ``floor > 0``: ``floor`` if no node or feature can ask for less anywhere
+    in the segment's box (each grows away from its box by its slope), else the first lower
+    value found."""
+    upper = floor <= 0.0
+    best = sf.size if upper else floor
+    box = (min(px, qx), min(py, qy), max(px, qx), max(py, qy))
+    stack = np.empty(_STACK, dtype=np.int64)
+    stack[0] = 0
+    top = 1 if sf.hmin.shape[0] else 0
+    while top > 0:
+        top -= 1
+        node = stack[top]
+        if upper:
+            bound = max(_bound(px, py, sf, node), _bound(qx, qy, sf, node))
+        else:
+            nb_ = sf.box[node]
+            gap = _box_gap(nb_[0], nb_[1], nb_[2], nb_[3], box)
+            bound = sf.hmin[node] + sf.smin[node] * gap
+        if bound >= best:
+            continue
+        if sf.child[node, 0] >= 0:
+            stack[top], stack[top + 1] = sf.child[node, 0], sf.child[node, 1]
+            top += 2
+            continue
+        for f in range(sf.span[node, 0], sf.span[node, 1]):
+            if upper:
+                best = min(best, max(_cone(px, py, sf, f), _cone(qx, qy, sf, f)))
+                continue
+            ax, ay, bx, by = sf.fa[f, 0], sf.fa[f, 1], sf.fb[f, 0], sf.fb[f, 1]
+            gap = _box_gap(min(ax, bx), min(ay, by), max(ax, bx), max(ay, by), box)
+            low = min(sf.ha[f], sf.hb[f]) + sf.fslope[f] * gap
+            if low < floor:
+                return low
+    return max(best, sf.size_min)
+
+
 @nb.njit(cache=True)
 def boundary_nodes(
     a: FloatArray, b: FloatArray, nxt: IntArray, sf: SizeTuple, cap: float
-) -> float:  # pragma: no cover - compiled
+) -> tuple[float, int]:  # pragma: no cover - compiled
     """Nodes the discretisation puts on segments ``a[i] -> b[i] = a[nxt[i]]`` (their starts
-    included), in steps of the local size (it changes by at most ``slope`` a step); stops past
-    ``cap``. The size at each vertex is taken once, for both segments that meet there."""
+    included), the integral of ``1 / h`` along each, rounded; stops past ``cap``. Also returns
+    the size lookups and box tests it took.
+
+    A piece of a segment is counted by the trapezoid rule on its ends' sizes once it is at most
+    one local size long, or once the field is known to stay within ``_NODE_TOL`` on it: below
+    the upper bound of :func:`_field_on` and above ``1 - _NODE_TOL`` of that. Other pieces
+    are halved (untested when under ``_TESTED`` sizes long), so a long side where a gap asks
+    for a constant size costs a few lookups, not one per node (a 1e-6-wide spike: 318 instead
+    of 8.4 million)."""
     at_vertex = np.empty(a.shape[0])
     for i in range(a.shape[0]):
         at_vertex[i] = size_field_at(sf, a[i, 0], a[i, 1])
+    work = a.shape[0]
+    pieces = np.empty((_STACK, 4))  # t0, t1, h(t0), h(t1)
     total = 0.0
     for i in range(a.shape[0]):
         ax, ay, bx, by = a[i, 0], a[i, 1], b[i, 0], b[i, 1]
         length = math.hypot(bx - ax, by - ay)
-        h_prev = at_vertex[i]
-        t, cum = 0.0, 0.0
-        while t < 1.0 and total + cum <= cap:
-            step = min(h_prev / length, 1.0 - t)
-            t += step
-            if t >= 1.0:
-                h = at_vertex[nxt[i]]
-            else:
-                h = size_field_at(sf, ax + t * (bx - ax), ay + t * (by - ay))
-            cum += 0.5 * (1.0 / h + 1.0 / h_prev) * step * length
-            h_prev = h
+        pieces[0] = (0.0, 1.0, at_vertex[i], at_vertex[nxt[i]])
+        top = 1
+        cum = 0.0
+        while top > 0 and total + cum <= cap:
+            top -= 1
+            t0, t1, h0, h1 = pieces[top]
+            span = (t1 - t0) * length
+            done = span <= min(h0, h1) or top + 2 > _STACK
+            if not done and span > _TESTED * min(h0, h1):
+                px, py = ax + t0 * (bx - ax), ay + t0 * (by - ay)
+                qx, qy = ax + t1 * (bx - ax), ay + t1 * (by - ay)
+                floor = (1.0 - _NODE_TOL) * _field_on(sf, px, py, qx, qy, 0.0)
+                work += 2
+                done = floor <= sf.size_min or _field_on(sf, px, py, qx, qy, floor) >= floor
+            if done:
+                cum += 0.5 * (1.0 / h0 + 1.0 / h1) * span
+                continue
+            tm = 0.5 * (t0 + t1)
+            hm = size_field_at(sf, ax + tm * (bx - ax), ay + tm * (by - ay))
+            work += 1
+            # The far half below, so pieces are counted from the segment's start.
+            pieces[top] = (tm, t1, hm, h1)
+            pieces[top + 1] = (t0, tm, h0, hm)
+            top += 2
         total += max(round(cum), 1)
         if total > cap:
             break
-    return total
+    return total, work
 
 
 class _Segments(NamedTuple):
@@ -267,6 +357,28 @@ def _leaf_share(
     return share * (cell * cell / EQUILATERAL_AREA)
 
 
+def front_slope(slope: FloatArray) -> FloatArray:
+    """The slope the front achieves where the field asks for ``slope`` (``growth - 1``).
+
+    >>> front_slope(np.array([0.1, 0.2, 0.5, 1.0, 4.0])).round(3).tolist()
+    [0.1, 0.2, 0.36, 0.45, 0.55]
+    """
+    asked = np.asarray(slope, np.float64)
+    return np.minimum(asked, np.interp(asked, _FRONT_ASKED, _FRONT_REACHED))
+
+
+def _as_the_front_grades(field: SizeField) -> SizeField:
+    """``field`` with each feature's slope replaced by what the front achieves."""
+    t = field.tree
+    fslope = front_slope(t.fslope)
+    slope = float(front_slope(np.array(t.slope)))
+    if slope == t.slope and np.array_equal(fslope, t.fslope):
+        return field
+    # The slope is increasing in what is asked, so a node's least slope maps to its least.
+    tree = t._replace(slope=slope, fslope=fslope, smin=front_slope(t.smin))
+    return dataclasses.replace(field, tree=tree)
+
+
 def _area_integral(
     region: Region, field: SizeField, max_cells: int, cap: float, should_stop: StopFn
 ) -> FloatArray:
@@ -368,13 +480,14 @@ def estimate_triangles(
     if area_low > limit:
         return math.ceil(area_low)
     a, b, _, nxt = ring_segments(region)
-    nodes = boundary_nodes(a, b, nxt, field.as_tuple(), limit)
+    nodes, _ = boundary_nodes(a, b, nxt, field.as_tuple(), limit)
     if nodes > limit or area_low + _PER_NODE * nodes > limit:
         return round(max(nodes, area_low + _PER_NODE * nodes))  # at least this many triangles
     holes = len(region.rings) - len(region.parts)
     edge = nodes - 2 * len(region.parts) + 2 * holes
     progress("estimate", 0.5)
     # The area term passes the cap once the weighted integrals pass this.
-    sums = _area_integral(region, field, max_cells, limit - _PER_NODE * nodes, should_stop)
+    graded = _as_the_front_grades(field)
+    sums = _area_integral(region, graded, max_cells, limit - _PER_NODE * nodes, should_stop)
     progress("estimate", 1.0)
     return round(max(float(sums @ _WEIGHTS) + _PER_NODE * nodes, edge))
