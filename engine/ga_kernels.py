@@ -14,6 +14,7 @@ double-precision fitness of :mod:`engine.star`, the value that is reported.
 from __future__ import annotations
 
 import math
+import os
 
 import numba
 import numpy as np
@@ -39,6 +40,16 @@ FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 UIntArray = NDArray[np.uint64]
 Float32Array = NDArray[np.float32]
+
+# OpenMP threads that wait (for the next parallel region, or at a region's end for a slower
+# thread) spin for some 300,000 iterations by default. Each independent set is a few parallel
+# regions with serial work between them (accepting moves, progress), so on two threads the
+# spinning cost 20% more CPU per node-GA (12,800 -> 10,400 per CPU-second on unit_square.poor)
+# and took a core from the thread with work when the machine is shared. Passive waiting
+# sleeps at once; waking costs microseconds against regions of tens of milliseconds. OpenMP
+# reads this when numba first loads it, at the first parallel kernel call, after this import;
+# a value the user set is kept.
+os.environ.setdefault("OMP_WAIT_POLICY", "passive")
 
 _F32 = np.float32
 #: A node's GA has converged when its best fitness rose by no more than this (a fitness unit is

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+
 import numba
 import numpy as np
 import pytest
@@ -423,3 +427,18 @@ def test_should_stop_cancels_between_generations_and_progress_grows() -> None:
     assert fractions == sorted(fractions)
     assert fractions[0] > 0
     assert fractions[-1] <= 1.0
+
+
+@pytest.mark.parametrize(("preset", "expected"), [(None, "passive"), ("active", "active")])
+def test_waiting_openmp_threads_sleep_unless_the_user_chose_otherwise(
+    preset: str | None, expected: str
+) -> None:
+    # In a fresh process: OpenMP reads the policy once, when the first parallel kernel loads it.
+    env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
+    if preset is not None:
+        env["OMP_WAIT_POLICY"] = preset
+    code = "import os, engine; print(os.environ['OMP_WAIT_POLICY'])"
+    out = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+    )
+    assert out.stdout.strip() == expected
