@@ -25,7 +25,7 @@ from .geo import Projection, project_rings
 from .geo.shapes import project_geometry, snap_vertices
 from .geojson import ParsedRegion, build_region, parse_region
 from .inputs import RefinementInput
-from .problems import Problem
+from .refusal import InputRefused
 
 __all__ = [
     "checked_constraints",
@@ -58,7 +58,7 @@ def _short_share(region: engine.Region, size: float) -> float:
 def estimate_or_refuse(
     region: engine.Region, sizing: engine.SizingParams, cap: int, pointer: str
 ) -> int:
-    """The engine's triangle estimate, counting stopped past ``cap``; a 422 ``Problem`` at
+    """The engine's triangle estimate, counting stopped past ``cap``; an ``InputRefused`` at
     ``pointer`` when the size field cannot be built (too many gap samples) or the estimate is
     over ``cap`` (saying why when the boundary's vertices, closer than the size, drive it).
     With ``sizing.resample`` the estimate is of the resampled region, as the engine meshes it."""
@@ -67,8 +67,8 @@ def estimate_or_refuse(
     try:
         field = build_size_field(region, sizing)
     except engine.LimitExceeded as exc:
-        raise Problem(
-            422, str(exc), kind="limit-exceeded", title="Input over a limit", pointer=pointer
+        raise InputRefused(
+            str(exc), kind="limit-exceeded", title="Input over a limit", pointer=pointer
         ) from None
     triangles = int(engine.estimate_triangles(region, field, cap=cap))
     if triangles > cap:
@@ -82,8 +82,8 @@ def estimate_or_refuse(
                 " `resample: true` (CLI --resample) to re-discretise it to the size, or use a"
                 " larger size or simplify the boundary"
             )
-        raise Problem(
-            422, detail, kind="limit-exceeded", title="Input over a limit", pointer=pointer
+        raise InputRefused(
+            detail, kind="limit-exceeded", title="Input over a limit", pointer=pointer
         )
     return triangles
 
@@ -191,8 +191,8 @@ def _in_plane(
     try:
         return project_geometry(geometry, projection, densify)
     except (ProjError, ValueError, TypeError, KeyError) as exc:
-        raise Problem(
-            422, f"the geometry cannot be projected: {exc}", kind="invalid-input", pointer=at
+        raise InputRefused(
+            f"the geometry cannot be projected: {exc}", kind="invalid-input", pointer=at
         ) from None
 
 
@@ -215,11 +215,10 @@ def checked_refinements(
             plane = _in_plane(mapping(shape), projection, densify, f"{at}/{i}/geometry")
             shape = engine.Refinement(plane, r.size, r.growth).shape()
         except InvalidRefinement as exc:
-            raise Problem(422, str(exc), kind="invalid-input", pointer=f"{at}/{i}") from None
+            raise InputRefused(str(exc), kind="invalid-input", pointer=f"{at}/{i}") from None
         vertices += int(shapely.get_num_coordinates(shape))
         if vertices > limit:
-            raise Problem(
-                422,
+            raise InputRefused(
                 f"the boundary's and the refinements' vertices are over the limit of {limit:,}",
                 kind="limit-exceeded",
                 title="Input over a limit",
@@ -290,7 +289,7 @@ def checked_constraints(
         shapes = engine.check_constraints(plane, region)
     except engine.InvalidConstraint as exc:
         where = pointers[exc.index] if exc.index < len(pointers) else at
-        raise Problem(422, str(exc), kind="invalid-input", pointer=where) from None
+        raise InputRefused(str(exc), kind="invalid-input", pointer=where) from None
     plain = [orjson.loads(orjson.dumps(mapping(s))) for s in shapes]
     return {"geometries": plain, "names": names}
 
@@ -369,7 +368,7 @@ def local_payload(
                 inputs.get("constraints"), parsed.region, projection, "/constraints", densify
             ),
         }
-    except Problem as exc:
+    except InputRefused as exc:
         raise ValueError(f"{exc.pointer}: {exc.detail}") from None
 
 
@@ -410,8 +409,7 @@ def subdomains_of(
         for i in range(j):
             common = shapes[i].intersection(shapes[j])
             if common.area > 1e-9 * min(shapes[i].area, shapes[j].area):
-                raise Problem(
-                    422,
+                raise InputRefused(
                     f"polygon {j} overlaps polygon {i}: subdomains may share edges only",
                     kind="invalid-boundary",
                     pointer=pieces[j][1],

@@ -29,6 +29,7 @@ from .formats import FormatError
 from .geojson import BoundaryInputError
 from .jobs.admission import QueueFull
 from .jobs.store import StoreCorrupt, StoreUnavailable
+from .refusal import InputRefused
 
 __all__ = [
     "MEDIA_TYPE",
@@ -155,6 +156,8 @@ def problem_for(exc: Exception, store_retry_after: int = STORE_RETRY_AFTER) -> P
         return Problem(
             422, detail, kind="invalid-input", title="Invalid input", pointer=where, errors=errors
         )
+    if isinstance(exc, InputRefused):
+        return Problem(422, exc.detail, kind=exc.kind, title=exc.title, pointer=exc.pointer)
     if isinstance(exc, BoundaryInputError):
         return Problem(422, exc.message, kind="invalid-boundary", pointer=exc.pointer)
     if isinstance(exc, InvalidBoundary):
@@ -215,6 +218,7 @@ def install(app: FastAPI) -> None:
         Problem,
         RequestValidationError,
         StarletteHTTPException,
+        InputRefused,
         BoundaryInputError,
         InvalidBoundary,
         InvalidMesh,

@@ -23,8 +23,8 @@ from ..formats import EXTENSIONS, FORMATS, StoredResult
 from ..geo import read_region_file
 from ..geojson import BoundaryInputError
 from ..inputs import SmoothingInput
-from ..problems import Problem
 from ..processes import inputs_at, mesh, quality, smooth
+from ..refusal import InputRefused
 from ..settings import Settings
 from .control_flags import add_control_flags, control_inputs
 from .files import output_format, read_mesh, say, write_output
@@ -68,7 +68,7 @@ def _prepared(prepare: Callable[[M, Settings, Any], tuple[T, int]], inputs: M) -
     """The typed request of ``inputs``; a refusal as a one-line ValueError naming the input."""
     try:
         request, _ = prepare(inputs, _local_limits(), WHERE)
-    except Problem as exc:
+    except InputRefused as exc:
         raise ValueError(f"{exc.pointer}: {exc.detail}" if exc.pointer else exc.detail) from None
     return request
 

@@ -24,7 +24,7 @@ from engine.pipeline import STAGE_WEIGHTS, job_progress
 from ..document import mesh_from_document
 from ..inputs import ExecuteRequest, MeshDocumentInput, SmoothingInput
 from ..jobs.task import ProgressCallback, TaskError, encode_inputs, pack
-from ..problems import Problem
+from ..refusal import InputRefused
 from ..settings import Settings
 
 __all__ = [
@@ -162,8 +162,7 @@ def count_rings(obj: Any, limit: int = 10**9) -> tuple[int, int]:
 def check_limit(value: float, limit: float, what: str, pointer: str) -> None:
     """A 422 ``limit-exceeded`` problem at ``pointer`` when ``value`` is over ``limit``."""
     if value > limit:
-        raise Problem(
-            422,
+        raise InputRefused(
             f"{what} is {value:.4g}, over the limit of {limit:.4g}",
             kind="limit-exceeded",
             title="Input over a limit",
@@ -186,10 +185,10 @@ def check_mesh(mesh: MeshDocumentInput, settings: Settings, where: Where) -> int
             pointer += f"/triangles/{exc.triangle}"
         elif exc.point is not None:
             pointer += f"/{_points_at(mesh)}/{exc.point}"
-        raise Problem(422, exc.message, kind="invalid-mesh", pointer=pointer) from None
+        raise InputRefused(exc.message, kind="invalid-mesh", pointer=pointer) from None
     except (TypeError, ValueError, ArithmeticError) as exc:
-        raise Problem(
-            422, f"the mesh could not be read: {exc}", kind="invalid-mesh", pointer=at
+        raise InputRefused(
+            f"the mesh could not be read: {exc}", kind="invalid-mesh", pointer=at
         ) from exc
     return len(mesh.triangles)
 
@@ -218,7 +217,7 @@ def smoothing_params(smoothing: SmoothingInput, where: Where) -> tuple[Smoothing
     try:
         params = SmoothingParams(**values)
     except ValueError as exc:
-        raise Problem(422, str(exc), kind="invalid-input", pointer=where("smoothing")) from None
+        raise InputRefused(str(exc), kind="invalid-input", pointer=where("smoothing")) from None
     return params, secrets.randbits(63) if seed is None else seed
 
 

@@ -41,7 +41,7 @@ from ..inputs import (
     SmoothingInput,
 )
 from ..jobs.task import ProgressCallback
-from ..problems import Problem
+from ..refusal import InputRefused
 from ..settings import Settings
 from .base import (
     MESH_OUTPUT,
@@ -250,8 +250,7 @@ def _sizing(inputs: MeshInputs, parsed: ParsedRegion, where: Where) -> engine.Si
     if size is None:
         h = parsed.properties.get("h")
         if not isinstance(h, int | float) or isinstance(h, bool) or not (0 < h < math.inf):
-            raise Problem(
-                422,
+            raise InputRefused(
                 "size is required (or a positive 'h' property on the Feature)",
                 kind="invalid-input",
                 pointer=where("size"),
@@ -263,8 +262,7 @@ def _sizing(inputs: MeshInputs, parsed: ParsedRegion, where: Where) -> engine.Si
     lengths = {"size": size, "size_min": inputs.size_min, "size_max": inputs.size_max}
     for name, value in lengths.items():
         if value is not None and not lo <= value <= hi:
-            raise Problem(
-                422,
+            raise InputRefused(
                 f"{name} is {value:.4g}; for this region (extent {extent:.4g}) it must be"
                 f" between {lo:.4g} and {hi:.4g}",
                 kind="invalid-input",
@@ -280,7 +278,7 @@ def _sizing(inputs: MeshInputs, parsed: ParsedRegion, where: Where) -> engine.Si
             resample_tolerance=inputs.resample_tolerance,
         )
     except ValueError as exc:
-        raise Problem(422, str(exc), kind="invalid-input", pointer=where("size")) from None
+        raise InputRefused(str(exc), kind="invalid-input", pointer=where("size")) from None
 
 
 def _parse(inputs: MeshInputs, where: Where, densify: float | None = None) -> ParsedRegion:
@@ -294,14 +292,14 @@ def _parse(inputs: MeshInputs, where: Where, densify: float | None = None) -> Pa
     except (BoundaryInputError, engine.InvalidBoundary):
         raise
     except UnknownCRS as exc:
-        raise Problem(422, exc.message, kind="invalid-input", pointer=crs_at) from None
+        raise InputRefused(exc.message, kind="invalid-input", pointer=crs_at) from None
     except GeoError as exc:  # RegionTooLarge and the like: the region as a whole
-        raise Problem(422, exc.message, kind="invalid-boundary", pointer=at) from None
+        raise InputRefused(exc.message, kind="invalid-boundary", pointer=at) from None
     except (TypeError, ValueError, ArithmeticError, RuntimeWarning) as exc:
         # Input the parser did not foresee (numbers near the float limit overflow, a warning
         # when warnings are errors): still the input's fault, never a server error.
-        raise Problem(
-            422, f"the boundary could not be read: {exc}", kind="invalid-boundary", pointer=at
+        raise InputRefused(
+            f"the boundary could not be read: {exc}", kind="invalid-boundary", pointer=at
         ) from exc
 
 
@@ -316,7 +314,8 @@ def _region(inputs: MeshInputs, where: Where) -> tuple[ParsedRegion, list[float 
 
 def prepare(inputs: MeshInputs, settings: Settings, where: Where) -> tuple[MeshRequest, int]:
     """Validate ``inputs`` against the limits of ``settings``: the request and its estimated
-    triangle count, or a :class:`Problem` (or a boundary error) located with ``where``."""
+    triangle count, or an :class:`~service.refusal.InputRefused` (or a boundary error) located
+    with ``where``."""
     rings, vertices = count_rings(inputs.boundary, settings.max_vertices)
     at = where("boundary")
     check_limit(rings, settings.max_rings, "the number of rings", at)

@@ -14,7 +14,7 @@ from engine import SmoothingParams
 from ..document import cell_data, mesh_from_document
 from ..inputs import SMOOTHING_DEFAULTS, STRICT, ExecuteRequest, Fitness, MeshDocumentInput
 from ..jobs.task import ProgressCallback
-from ..problems import Problem
+from ..refusal import InputRefused
 from ..settings import Settings
 from .base import MESH_OUTPUT, Prepared, Process, Where, admitted, check_mesh, mesh_only, run_task
 
@@ -72,7 +72,7 @@ def prepare(inputs: QualityInputs, settings: Settings, where: Where) -> tuple[Qu
     try:
         params = SmoothingParams(fitness=inputs.fitness, alpha=inputs.alpha, beta=inputs.beta)
     except ValueError as exc:
-        raise Problem(422, str(exc), kind="invalid-input", pointer=where("alpha")) from None
+        raise InputRefused(str(exc), kind="invalid-input", pointer=where("alpha")) from None
     triangles = check_mesh(inputs.mesh, settings, where)
     return QualityRequest(mesh_only(inputs.mesh), params), triangles
 

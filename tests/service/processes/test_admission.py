@@ -14,8 +14,9 @@ import pytest
 import engine
 from service import processes
 from service.jobs.task import TaskError
-from service.problems import Problem, problem_for
+from service.problems import problem_for
 from service.processes import PROCESSES, estimate_mesh, inputs_at
+from service.refusal import InputRefused
 from service.settings import Settings
 
 from ..conftest import SQUARE, ClientFactory, assert_problem, submit, wait_for
@@ -212,8 +213,8 @@ def test_coordinates_near_the_float_limit_are_a_422_not_a_server_error() -> None
     model = PROCESSES["mesh"].inputs_model.model_validate(
         {"boundary": {"type": "Polygon", "coordinates": [ring]}, "size": 1.0}
     )
-    # Refused as a Problem or as the engine's typed InvalidBoundary, which the service's one
+    # Refused as an InputRefused or as the engine's typed InvalidBoundary, which the service's one
     # mapper (problems.problem_for) turns into a 422 with a message.
-    with pytest.raises((Problem, engine.InvalidBoundary)) as info:
+    with pytest.raises((InputRefused, engine.InvalidBoundary)) as info:
         PROCESSES["mesh"].prepare(model, _settings(), inputs_at("/inputs"))
     assert problem_for(info.value).status == 422
