@@ -24,11 +24,11 @@ from .store import (
     JobRecord,
     JobStatus,
     NewJob,
-    StoreCorrupt,
     StoreError,
     StoreUnavailable,
+    read_inputs,
 )
-from .task import decode_inputs, encode_inputs
+from .task import compact_json, encode_inputs
 
 __all__ = ["MemoryJobStore", "MemoryTables"]
 
@@ -57,13 +57,6 @@ class MemoryTables:
     )  #: process, created, owner
     seq: int = 0
     lock: threading.Lock = field(default_factory=threading.Lock)
-
-
-def _json(value: Any) -> bytes:
-    try:
-        return orjson.dumps(value)
-    except TypeError:  # what orjson refuses and json takes (integers past 64 bits)
-        return json.dumps(value, separators=(",", ":")).encode()
 
 
 class MemoryJobStore:
@@ -162,10 +155,7 @@ class MemoryJobStore:
         row = self._open().jobs.get(job_id)
         if row is None:
             return None
-        try:
-            return decode_inputs(row.inputs)
-        except ValueError as exc:
-            raise StoreCorrupt(f"the stored input of job {job_id} cannot be read: {exc}") from None
+        return read_inputs(job_id, row.inputs)
 
     def search(
         self,
@@ -251,7 +241,7 @@ class MemoryJobStore:
         )
 
     def finish(self, job_id: str, result: bytes, meta: dict[str, Any]) -> bool:
-        figures = json.loads(_json(meta))  # a copy, as stored
+        figures = json.loads(compact_json(meta))  # a copy, as stored
         done = self._change(
             job_id,
             {JobStatus.running},
@@ -344,7 +334,7 @@ class MemoryJobStore:
             row = t.jobs.get(job_id)
             if row is None:
                 return False
-            row.subscriber = b"" if state is None else _json(state)
+            row.subscriber = b"" if state is None else compact_json(state)
             return True
 
     def subscribed(self) -> list[tuple[str, dict[str, Any]]]:

@@ -28,8 +28,9 @@ from .store import (
     NewJob,
     StoreCorrupt,
     StoreUnavailable,
+    read_inputs,
 )
-from .task import decode_inputs, encode_inputs
+from .task import encode_inputs
 
 __all__ = ["SqliteJobStore"]
 
@@ -311,10 +312,7 @@ class SqliteJobStore:
         row = self._conn().execute("SELECT inputs FROM jobs WHERE id = ?", (job_id,)).fetchone()
         if row is None:
             return None
-        try:
-            return decode_inputs(row[0])
-        except ValueError as exc:
-            raise StoreCorrupt(f"the stored input of job {job_id} cannot be read: {exc}") from None
+        return read_inputs(job_id, row[0])
 
     @_translated
     def search(

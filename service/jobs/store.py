@@ -13,6 +13,8 @@ from collections.abc import Collection, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
+from .task import decode_inputs
+
 __all__ = [
     "FINAL",
     "BatchRecord",
@@ -24,6 +26,7 @@ __all__ = [
     "StoreCorrupt",
     "StoreError",
     "StoreUnavailable",
+    "read_inputs",
 ]
 
 
@@ -52,6 +55,15 @@ class StoreUnavailable(StoreError):
 
 class StoreCorrupt(StoreError):
     """The store (or one stored item) cannot be read: it is not what this service wrote."""
+
+
+def read_inputs(job_id: str, data: bytes) -> dict[str, Any]:
+    """A job's stored inputs (:func:`~service.jobs.task.encode_inputs`' form) as every store
+    reads them back: :class:`StoreCorrupt`, naming the job, when they cannot be read."""
+    try:
+        return decode_inputs(data)
+    except ValueError as exc:
+        raise StoreCorrupt(f"the stored input of job {job_id} cannot be read: {exc}") from None
 
 
 class IdempotencyConflict(Exception):

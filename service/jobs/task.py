@@ -45,6 +45,7 @@ __all__ = [
     "StopCallback",
     "Task",
     "TaskError",
+    "compact_json",
     "decode_inputs",
     "encode_inputs",
     "error_outcome",
@@ -228,11 +229,20 @@ def encode_inputs(inputs: dict[str, Any] | bytes) -> bytes:
     """
     if isinstance(inputs, bytes):
         return inputs
+    return zlib.compress(compact_json(inputs), 1)
+
+
+def compact_json(value: Any) -> bytes:
+    """``value`` as compact JSON: orjson, or ``json`` for what orjson refuses (integers past
+    64 bits), so that nothing a request validated fails to be stored.
+
+    >>> compact_json({"n": 2**70})
+    b'{"n":1180591620717411303424}'
+    """
     try:
-        text = orjson.dumps(inputs)
+        return orjson.dumps(value)
     except TypeError:
-        text = json.dumps(inputs, separators=(",", ":")).encode()
-    return zlib.compress(text, 1)
+        return json.dumps(value, separators=(",", ":")).encode()
 
 
 def decode_inputs(data: bytes) -> dict[str, Any]:
