@@ -1,11 +1,12 @@
 """The runnable examples of the README and of the docs (``docs/**/*.md``) work.
 
-A fenced block tagged ``sh run`` or ``python run`` is run as a user would: shell blocks with
+A fenced block tagged ``sh {.run}`` or ``python {.run}`` (a class the docs site keeps and GitHub
+ignores) is run as a user would: shell blocks with
 bash, Python blocks saved to a file and run as a script (so a block that starts worker
 processes must guard its entry point with ``if __name__ == "__main__":``). Each runs in a fresh
 folder, as if it were the clone's top folder (``tests`` is linked there, so the public cases are
 found), with ``evomesh`` and ``python`` of this environment on ``PATH`` and ``TMPDIR`` unset.
-A block tagged ``sh run server`` talks to a service: the test starts ``evomesh serve`` on a free
+A block tagged ``sh {.run .server}`` talks to a service: the test starts ``evomesh serve`` on a free
 port and the block's ``http://127.0.0.1:8000`` is that server.
 """
 
@@ -24,7 +25,7 @@ from tests.e2e.server import Server
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
 PAGES = [README, *sorted((ROOT / "docs").rglob("*.md"))]
-_BLOCK = re.compile(r"^```(sh|python) run( server)?\n(.*?)^```", re.DOTALL | re.MULTILINE)
+_BLOCK = re.compile(r"^```(sh|python) \{\.run( \.server)?\}\n(.*?)^```", re.DOTALL | re.MULTILINE)
 #: Where the examples say the service is (``make run``'s address).
 SERVICE_URL = "http://127.0.0.1:8000"
 
@@ -32,7 +33,8 @@ SERVICE_URL = "http://127.0.0.1:8000"
 def examples(text: str) -> list[tuple[str, bool, str]]:
     """``(language, needs a server, code)`` of each runnable block of a markdown text.
 
-    >>> examples("```sh run\\nls\\n```\\n```python\\nx\\n```\\n```sh run server\\ncurl\\n```\\n")
+    >>> text = "```sh {.run}\\nls\\n```\\n```python\\nx\\n```\\n"
+    >>> examples(text + "```sh {.run .server}\\ncurl\\n```\\n")
     [('sh', False, 'ls\\n'), ('sh', True, 'curl\\n')]
     """
     return [(m.group(1), bool(m.group(2)), m.group(3)) for m in _BLOCK.finditer(text)]
