@@ -385,10 +385,8 @@ def _pieces(boundary: Any, at: str) -> list[tuple[Any, str, Any]]:
         boundary, at = boundary.get("geometry"), f"{at}/geometry"
     if isinstance(boundary, dict) and boundary.get("type") == "MultiPolygon":
         coords = boundary.get("coordinates") or []
-        return [
-            ({"type": "Polygon", "coordinates": c}, f"{at}/coordinates/{k}", h)
-            for k, c in enumerate(coords)
-        ]
+        # A polygon's rings as a bare list, so its rings' pointers are {at}/coordinates/k/i.
+        return [(c, f"{at}/coordinates/{k}", h) for k, c in enumerate(coords)]
     return []
 
 

@@ -48,6 +48,12 @@ BAD: dict[str, tuple[Any, str, str, list[float] | None]] = {
         OUTSIDE,
         None,
     ),
+    "second polygon of a MultiPolygon": (
+        {"type": "MultiPolygon", "coordinates": [[SQUARE], [[[x + 10, y] for x, y in BOWTIE]]]},
+        "/coordinates/1/0/0",
+        "part 0 ring 0 (outer) intersects itself at (11.3333, 0) near vertex 0",
+        [11.3333333333333, 0.0],
+    ),
     "outer/holes hole outside": (
         {"outer": SQUARE[:-1], "holes": [HOLE_OUTSIDE]},
         "/holes/0/0",
@@ -97,8 +103,8 @@ async def test_single_and_feature_collection_answers(client: httpx.AsyncClient, 
     )
     doc = assert_problem(r, 422, "invalid-boundary", "/inputs/boundary" + pointer)
     assert (doc["detail"], doc.get("location")) == (detail, location)
-    if "type" not in boundary:
-        return  # {"outer", "holes"} is not a geometry a Feature holds
+    if boundary.get("type") != "Polygon":
+        return  # the same polygon as the second of a FeatureCollection's features
     shifted = _feature(boundary)
     good = _feature({"type": "Polygon", "coordinates": [[[x + 20, y] for x, y in SQUARE]]})
     collection = {"type": "FeatureCollection", "features": [good, shifted]}
