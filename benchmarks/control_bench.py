@@ -16,9 +16,11 @@ Run: ``.venv/bin/python benchmarks/control_bench.py`` (needs ``make .venv/.bench
 from __future__ import annotations
 
 import time
+from types import ModuleType
 from typing import Any
 
 import numpy as np
+from peers import run_gmsh
 from record import write_rows
 
 import engine
@@ -52,12 +54,7 @@ def ours(geometry: dict[str, Any], growth: float | None) -> tuple[Mesh, float]:
 
 
 def theirs(geometry: dict[str, Any], growth: float | None) -> tuple[Mesh, float]:
-    import gmsh
-    from gmsh_read import gmsh_triangles
-
-    gmsh.initialize(["-nt", "1"])
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
+    def build(gmsh: ModuleType) -> None:
         geo = gmsh.model.geo
         corners = [geo.addPoint(x, y, 0) for x, y in SQUARE]
         lines = [geo.addLine(corners[i], corners[(i + 1) % 4]) for i in range(4)]
@@ -93,14 +90,9 @@ def theirs(geometry: dict[str, Any], growth: float | None) -> tuple[Mesh, float]
         mesh_field.setAsBackgroundMesh(least)
         for key in ("MeshSizeExtendFromBoundary", "MeshSizeFromPoints", "MeshSizeFromCurvature"):
             gmsh.option.setNumber(f"Mesh.{key}", 0)
-        gmsh.option.setNumber("Mesh.Algorithm", 6)
-        t0 = time.perf_counter()
-        gmsh.model.mesh.generate(2)
-        seconds = time.perf_counter() - t0
-        mesh = gmsh_triangles()
-    finally:
-        gmsh.finalize()
-    return mesh, seconds
+
+    run = run_gmsh(build)
+    return run.mesh, run.seconds
 
 
 def figures(mesh: Mesh, seconds: float) -> dict[str, float]:

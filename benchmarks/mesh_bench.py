@@ -30,12 +30,14 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from peers import run_gmsh  # noqa: E402
 from record import write_rows  # noqa: E402
 
 from engine import Mesh, Region, SizingParams, make_region, mesh_region, triangle_quality  # noqa: E402
@@ -195,12 +197,8 @@ def run_graded(rows: list[dict[str, float | str]]) -> None:
 
 def gmsh_mesh(region: Region, field: SizeField, background: Mesh | None) -> tuple[Mesh, float]:
     """Mesh ``region`` with gmsh algorithm 6 on ``field`` (via ``background`` when graded)."""
-    import gmsh
-    from gmsh_read import gmsh_triangles
 
-    gmsh.initialize(["-nt", "1"])
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
+    def build(gmsh: ModuleType) -> None:
         gmsh.model.add("region")
         geo = gmsh.model.geo
         for part in region.parts:
@@ -212,7 +210,6 @@ def gmsh_mesh(region: Region, field: SizeField, background: Mesh | None) -> tupl
                 loops.append(geo.addCurveLoop(lines))
             geo.addPlaneSurface(loops)
         geo.synchronize()
-        gmsh.option.setNumber("Mesh.Algorithm", 6)
         gmsh.option.setNumber("Mesh.MeshSizeMax", field.size)
         if background is not None:
             # Evomesh's size field, sampled at the vertices of a background mesh.
@@ -229,13 +226,9 @@ def gmsh_mesh(region: Region, field: SizeField, background: Mesh | None) -> tupl
             gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
             gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
             gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
-        t0 = time.perf_counter()
-        gmsh.model.mesh.generate(2)
-        seconds = time.perf_counter() - t0
-        mesh = gmsh_triangles()
-    finally:
-        gmsh.finalize()
-    return mesh, seconds
+
+    run = run_gmsh(build)
+    return run.mesh, run.seconds
 
 
 def figures(mesh: Mesh, seconds: float) -> dict[str, float]:

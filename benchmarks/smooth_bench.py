@@ -20,14 +20,17 @@ candidate evaluations). Run: ``python benchmarks/smooth_bench.py [--cases a,b] [
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import math
 import os
 import time
 from pathlib import Path
+from types import ModuleType
 from typing import Any
 
 import numpy as np
+from peers import run_gmsh
 from record import write_rows
 
 import engine
@@ -154,14 +157,10 @@ def gmsh_mesh(
 ) -> Mesh | None:
     """gmsh Frontal-Delaunay + ``Relocate2D`` at size ``h``; ``timing["seconds"]`` gets the time
     of generate + optimize alone (not the geometry set-up), ``timing["cpu"]`` its CPU time."""
-    try:
-        import gmsh
-        from gmsh_read import gmsh_triangles
-    except ImportError:
+    if importlib.util.find_spec("gmsh") is None:
         return None
-    gmsh.initialize(readConfigFiles=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
+
+    def build(gmsh: ModuleType) -> None:
         gmsh.model.add("case")
         geo = gmsh.model.geo
         for part in region.parts:
@@ -172,17 +171,12 @@ def gmsh_mesh(
                 loops.append(geo.addCurveLoop(lines))
             geo.addPlaneSurface(loops)
         geo.synchronize()
-        gmsh.option.setNumber("Mesh.Algorithm", 6)  # Frontal-Delaunay
         gmsh.option.setNumber("Mesh.MeshSizeMax", h)
-        t0, c0 = time.perf_counter(), time.process_time()
-        gmsh.model.mesh.generate(2)
-        gmsh.model.mesh.optimize("Relocate2D")
-        if timing is not None:
-            timing["seconds"] = time.perf_counter() - t0
-            timing["cpu"] = time.process_time() - c0
-        return gmsh_triangles()
-    finally:
-        gmsh.finalize()
+
+    run = run_gmsh(build, argv=(), read_config=False, optimize="Relocate2D")
+    if timing is not None:
+        timing["seconds"], timing["cpu"] = run.seconds, run.cpu
+    return run.mesh
 
 
 def own_table(names: list[str]) -> dict[str, dict[str, dict[str, float]]]:

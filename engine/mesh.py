@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
+from typing import Self
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -104,9 +105,10 @@ class Mesh:
         mask[self.boundary_edges.ravel()] = True
         return mask
 
-    def with_points(self, points: FloatArray) -> Mesh:
-        """The same connectivity with moved vertices."""
-        return Mesh(points, self.triangles)
+    def with_points(self, points: FloatArray) -> Self:
+        """The same connectivity with moved vertices, of the same class (a subclass keeps its
+        own fields: a :class:`~engine.constraints.PinnedMesh` its pins)."""
+        return replace(self, points=points)
 
 
 def _whole_numbers(values: NDArray[np.generic]) -> bool:

@@ -266,8 +266,7 @@ def improve_mesh(
         if regular is not None:
             swapped_mesh = regular
     if smoothing.method != "none":  # a last settling for the mean, never worse at the worst
-        # replace, not with_points: a PinnedMesh keeps its pins (they must not move either)
-        settled = relax_mean(replace(swapped_mesh, points=outcome.points))
+        settled = relax_mean(swapped_mesh.with_points(outcome.points))
         if not np.array_equal(settled.points, outcome.points):  # the GA's fitness is stale
             outcome = replace(outcome, points=settled.points, fitness=None)
     # Assessed once, when it is known which mesh the smoother kept (unchanged: not again).
@@ -278,9 +277,8 @@ def improve_mesh(
     final = second
     if not unmoved:
         moved = swapped_mesh.with_points(outcome.points)
-        # Same connectivity, same boundary (unless a subclass defines its boundary otherwise).
-        same = type(moved) is type(swapped_mesh)
-        boundary = swapped_mesh.boundary_nodes if same else None
+        # Same connectivity and class: the same boundary, known already.
+        boundary = swapped_mesh.boundary_nodes
         final = assess_mesh(moved, smoothing, fitness=outcome.fitness, boundary=boundary)
     timings["total"] = time.perf_counter() - started
     return Result(

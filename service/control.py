@@ -23,7 +23,7 @@ from engine.sizing import build_size_field
 from .boundary_tags import region_name, tag_runs
 from .geo import Projection, project_rings
 from .geo.shapes import project_geometry, snap_vertices
-from .geojson import ParsedRegion, build_region, parse_region
+from .geojson import LocatedInvalidBoundary, ParsedRegion, build_region, parse_region
 from .inputs import RefinementInput
 from .refusal import InputRefused
 
@@ -385,15 +385,13 @@ def _pieces(boundary: Any, at: str) -> list[tuple[Any, str, Any]]:
         boundary, at = boundary.get("geometry"), f"{at}/geometry"
     if isinstance(boundary, dict) and boundary.get("type") == "MultiPolygon":
         coords = boundary.get("coordinates") or []
-        return [
-            ({"type": "Polygon", "coordinates": c}, f"{at}/coordinates/{k}", h)
-            for k, c in enumerate(coords)
-        ]
+        # A polygon's rings as a bare list, so its rings' pointers are {at}/coordinates/k/i.
+        return [(c, f"{at}/coordinates/{k}", h) for k, c in enumerate(coords)]
     return []
 
 
 def subdomains_of(
-    boundary: Any, at: str, crs: str | None, error: engine.InvalidBoundary
+    boundary: Any, at: str, crs: str | None, error: LocatedInvalidBoundary
 ) -> tuple[ParsedRegion, list[float | None]]:
     """``boundary`` as subdomains (polygons sharing edges, interiors apart) and each one's own
     ``h``; re-raises ``error`` (the whole region's) when it is not that case, and a located

@@ -2,8 +2,9 @@
 
 :func:`parse_region` accepts a Polygon, MultiPolygon, Feature, FeatureCollection, a bare
 coordinate list of rings, or ``{"outer": [[x, y], ...], "holes": [[[x, y], ...], ...]}``; it
-returns the validated region and a function that turns an engine error's (part, ring, vertex)
-into a JSON pointer into the input, so errors say exactly where the problem is. Given a ``crs``
+returns the validated region with the JSON pointer of each ring, and raises the engine's refusal
+of a region as a :class:`LocatedInvalidBoundary` pointing at the input's vertex, ring or polygon
+at fault, so errors say exactly where the problem is. Given a ``crs``
 the rings are projected to the meshing plane with :func:`service.geo.project_rings` (lon/lat
 input is meshed in metres in a local projection).
 """
@@ -20,6 +21,7 @@ from .geo import InvalidCoordinates, Projection, legacy_crs, project_rings
 
 __all__ = [
     "BoundaryInputError",
+    "LocatedInvalidBoundary",
     "ParsedRegion",
     "Parts",
     "build_region",
@@ -37,6 +39,17 @@ class BoundaryInputError(ValueError):
         self.pointer = pointer
 
 
+class LocatedInvalidBoundary(BoundaryInputError):
+    """The engine's :class:`engine.InvalidBoundary` (``cause``) located in the input: its
+    message, and ``pointer`` to the input's vertex, ring or polygon at fault (in the input's
+    numbering when the rings were densified). The engine's error is wrapped, not annotated, so
+    that it keeps saying only what the engine knows."""
+
+    def __init__(self, cause: InvalidBoundary, pointer: str) -> None:
+        super().__init__(cause.message, pointer)
+        self.cause = cause
+
+
 @dataclass(frozen=True)
 class ParsedRegion:
     """A validated region, with what is needed to point back into the input."""
@@ -47,10 +60,6 @@ class ParsedRegion:
     properties: dict[str, Any]  #: the Feature's properties (first Feature's for collections)
     projection: Projection | None = None  #: the input CRS and the plane (``None``: planar)
 
-    def pointer(self, exc: InvalidBoundary) -> str:
-        """JSON pointer (relative to the boundary input) of an engine error's location."""
-        return locate(self.ring_pointers, exc)
-
     def crs(self) -> dict[str, Any] | None:
         """What a job stores and a result document carries about the CRS (``None``: planar):
         :meth:`service.geo.Projection.describe`, whose ``input`` and ``mesh`` names rebuild the
@@ -58,16 +67,23 @@ class ParsedRegion:
         return None if self.projection is None else self.projection.describe()
 
 
-def locate(ring_pointers: Sequence[Sequence[str]], exc: InvalidBoundary) -> str:
-    """JSON pointer of ``exc``'s part/ring/vertex given the pointers of every ring."""
-    if exc.part is None or exc.part >= len(ring_pointers):
+def locate(
+    ring_pointers: Sequence[Sequence[str]], part: int | None, ring: int | None, vertex: int | None
+) -> str:
+    """JSON pointer of a part/ring/vertex (``None``: not known) given the pointers of every
+    ring; ``""`` when not even the part is known.
+
+    >>> locate([("/coordinates/0", "/coordinates/1")], 0, 1, 4)
+    '/coordinates/1/4'
+    >>> locate([("/coordinates/0",)], 0, None, None)
+    '/coordinates'
+    """
+    if part is None or part >= len(ring_pointers):
         return ""
-    rings = ring_pointers[exc.part]
-    if exc.ring is None or exc.ring >= len(rings):
-        ptr = rings[0].rsplit("/", 1)[0] if rings else ""
-        return ptr
-    ptr = rings[exc.ring]
-    return ptr if exc.vertex is None else f"{ptr}/{exc.vertex}"
+    rings = ring_pointers[part]
+    if ring is None or ring >= len(rings):
+        return rings[0].rsplit("/", 1)[0] if rings else ""
+    return rings[ring] if vertex is None else f"{rings[ring]}/{vertex}"
 
 
 _Part = tuple[Any, list[Any]]
@@ -195,8 +211,8 @@ def parse_region(
     """Parse and validate a region, projected to its meshing plane when it has a ``crs``.
 
     Raises :class:`BoundaryInputError` for malformed input (a position outside the CRS's range
-    included), :class:`engine.InvalidBoundary` (with ``exc.pointer`` set) for a region that
-    cannot be meshed and :class:`service.geo.GeoError` for an unknown CRS or a region too large
+    included), :class:`LocatedInvalidBoundary` (a subclass) for a region the engine cannot
+    mesh and :class:`service.geo.GeoError` for an unknown CRS or a region too large
     for one projection. ``densify`` (mesh-plane units) splits lon/lat edges to follow them.
 
     >>> p = parse_region({"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 0]]]})
@@ -221,11 +237,11 @@ def parse_region(
     try:
         region = build_region(parts)
     except InvalidBoundary as exc:
-        known = exc.part is not None and exc.ring is not None and exc.vertex is not None
-        if projection is not None and known:  # densified rings: back to the input's numbering
-            exc.vertex = projection.input_vertex(exc.part, exc.ring, exc.vertex)  # type: ignore[arg-type]
-        exc.pointer = locate(ring_pointers, exc) or pointer  # type: ignore[attr-defined]
-        raise
+        part, ring, vertex = exc.part, exc.ring, exc.vertex
+        if projection is not None and part is not None and ring is not None and vertex is not None:
+            vertex = projection.input_vertex(part, ring, vertex)  # densified: input numbering
+        at = locate(ring_pointers, part, ring, vertex) or pointer
+        raise LocatedInvalidBoundary(exc, at) from exc
     return ParsedRegion(region, parts, ring_pointers, props, projection)
 
 

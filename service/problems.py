@@ -26,7 +26,7 @@ from starlette.responses import JSONResponse
 from engine import InvalidBoundary, InvalidMesh
 
 from .formats import FormatError
-from .geojson import BoundaryInputError
+from .geojson import BoundaryInputError, LocatedInvalidBoundary
 from .jobs.admission import QueueFull
 from .jobs.store import StoreCorrupt, StoreUnavailable
 from .refusal import InputRefused
@@ -158,15 +158,12 @@ def problem_for(exc: Exception, store_retry_after: int = STORE_RETRY_AFTER) -> P
         )
     if isinstance(exc, InputRefused):
         return Problem(422, exc.detail, kind=exc.kind, title=exc.title, pointer=exc.pointer)
+    if isinstance(exc, LocatedInvalidBoundary):
+        return _invalid_boundary(exc.cause, exc.pointer)
     if isinstance(exc, BoundaryInputError):
         return Problem(422, exc.message, kind="invalid-boundary", pointer=exc.pointer)
-    if isinstance(exc, InvalidBoundary):
-        problem = Problem(
-            422, exc.message, kind="invalid-boundary", pointer=getattr(exc, "pointer", None)
-        )
-        if exc.location is not None:
-            problem.extra["location"] = list(exc.location)
-        return problem
+    if isinstance(exc, InvalidBoundary):  # a region the service put together: no pointer
+        return _invalid_boundary(exc, None)
     if isinstance(exc, InvalidMesh):
         pointer = "/inputs/mesh"
         if exc.triangle is not None:
@@ -192,6 +189,14 @@ def problem_for(exc: Exception, store_retry_after: int = STORE_RETRY_AFTER) -> P
             exc.status_code, str(exc.detail), headers=getattr(exc, "headers", None) or {}
         )
     return Problem(500, "the server failed to handle the request", kind="internal-error")
+
+
+def _invalid_boundary(exc: InvalidBoundary, pointer: str | None) -> Problem:
+    """The 422 of an engine's boundary error at ``pointer``, with the fault's coordinates."""
+    problem = Problem(422, exc.message, kind="invalid-boundary", pointer=pointer)
+    if exc.location is not None:
+        problem.extra["location"] = list(exc.location)
+    return problem
 
 
 def response_for(problem: Problem, instance: str | None = None) -> ProblemResponse:

@@ -31,7 +31,13 @@ from ..control import (
 )
 from ..document import result_document
 from ..geo import GeoError, UnknownCRS
-from ..geojson import BoundaryInputError, ParsedRegion, parse_region, region_crs
+from ..geojson import (
+    BoundaryInputError,
+    LocatedInvalidBoundary,
+    ParsedRegion,
+    parse_region,
+    region_crs,
+)
 from ..inputs import (
     BOUNDARY_SCHEMA,
     MAX_REFINEMENTS,
@@ -307,7 +313,7 @@ def _region(inputs: MeshInputs, where: Where) -> tuple[ParsedRegion, list[float 
     """The parsed region, and each polygon's own size when its polygons are subdomains."""
     try:
         return _parse(inputs, where), None
-    except engine.InvalidBoundary as exc:  # polygons sharing edges are subdomains
+    except LocatedInvalidBoundary as exc:  # polygons sharing edges are subdomains
         crs = region_crs(inputs.boundary, inputs.crs, inputs.coordinates)
         return subdomains_of(inputs.boundary, where("boundary"), crs, exc)
 

@@ -13,7 +13,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from engine import PipelineParams, Region, SizingParams, SmoothingParams, make_region, tag_mesh
-from engine.constraints import Constrained, InvalidConstraint, mesh_with_constraints
+from engine.constraints import Constrained, InvalidConstraint, PinnedMesh, mesh_with_constraints
 from engine.mesh import edge_table, validate_mesh
 from engine.refinement import Refinement
 
@@ -135,6 +135,34 @@ def test_constraint_lines_are_tagged_and_their_nodes_fixed() -> None:
     at = int(np.argmin(np.hypot(*(mesh.points - [0.3, 0.8]).T)))
     assert tags.fixed[at]
     assert tags.fixed[out.nodes].all()
+
+
+def test_a_pinned_mesh_with_moved_points_keeps_its_pins() -> None:
+    pts = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [0.3, 0.3]])
+    tris = np.array([[0, 1, 3], [1, 2, 3], [2, 0, 3]])
+    pinned = np.array([False, False, False, True])
+    moved = PinnedMesh(pts, tris, pinned).with_points(pts + 0.01)
+    assert type(moved) is PinnedMesh
+    assert moved.pinned is pinned
+    assert moved.boundary_nodes.all()
+    assert np.array_equal(moved.points, pts + 0.01)
+    assert np.array_equal(moved.with_points(pts).boundary_nodes, moved.boundary_nodes)
+
+
+@pytest.mark.parametrize("method", ["ga", "laplacian", "none"])
+def test_every_stage_holds_the_constraint_nodes_whichever_smoother_ran(method: str) -> None:
+    """Whether or not the smoother moved nodes, the smoothed mesh keeps its pins: they are
+    among its held nodes (``boundary_nodes``, the document's ``point_data.boundary``), and
+    its fitness summary is over the other nodes, as the earlier stages' are."""
+    cs = [line([0.15, 0.2], [0.5, 0.45]), point(0.3, 0.7)]
+    out = mesh_with_constraints(SQUARE, _params(method), cs, np.random.default_rng(0))
+    result = out.result
+    for snap in (result.initial, result.swapped, result.smoothed):
+        held = snap.mesh.boundary_nodes
+        assert held[out.nodes].all()
+        assert snap.summary["fitness"]["mean"] == float(snap.fitness[~held].mean())
+    moved = not np.array_equal(result.smoothed.mesh.points, result.swapped.mesh.points)
+    assert moved == (method != "none")
 
 
 def test_the_same_seed_gives_the_same_constrained_mesh() -> None:

@@ -13,6 +13,7 @@ import pytest
 
 import engine
 from service import processes
+from service.geojson import LocatedInvalidBoundary
 from service.jobs.task import TaskError
 from service.problems import problem_for
 from service.processes import PROCESSES, estimate_mesh, inputs_at
@@ -213,8 +214,8 @@ def test_coordinates_near_the_float_limit_are_a_422_not_a_server_error() -> None
     model = PROCESSES["mesh"].inputs_model.model_validate(
         {"boundary": {"type": "Polygon", "coordinates": [ring]}, "size": 1.0}
     )
-    # Refused as an InputRefused or as the engine's typed InvalidBoundary, which the service's one
-    # mapper (problems.problem_for) turns into a 422 with a message.
-    with pytest.raises((InputRefused, engine.InvalidBoundary)) as info:
+    # Refused as an InputRefused or as the engine's typed InvalidBoundary located in the input,
+    # which the service's one mapper (problems.problem_for) turns into a 422 with a message.
+    with pytest.raises((InputRefused, LocatedInvalidBoundary)) as info:
         PROCESSES["mesh"].prepare(model, _settings(), inputs_at("/inputs"))
     assert problem_for(info.value).status == 422

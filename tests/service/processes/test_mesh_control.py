@@ -227,6 +227,8 @@ async def test_constraints_become_tagged_mesh_edges_and_nodes(client: httpx.Asyn
     assert np.min(np.hypot(*(pts - [0.7, 0.2]).T)) < 1e-12  # the point is a node
     fixed = np.asarray(doc["point_data"]["fixed"], dtype=bool)
     assert fixed[np.unique(dam)].all()
+    # The smoother moved nodes, and "boundary" still marks every node it never moves.
+    assert doc["point_data"]["boundary"] == doc["point_data"]["fixed"]
 
 
 async def test_a_constraint_outside_the_region_is_a_located_422(client: httpx.AsyncClient) -> None:
