@@ -249,52 +249,47 @@ def _ascent(
 
 @nb.njit(cache=True)
 def _relax_mean(
-    p: FloatArray, t: IntArray, fixed: BoolArray, start: IntArray, tri_of: IntArray, sweeps: int,
+    p: FloatArray, t: IntArray, active: BoolArray, start: IntArray, tri_of: IntArray,
     limits: MeanLimits,
-) -> int:  # fmt: skip  # pragma: no cover - compiled
-    moved = 0
-    # After the first sweep only nodes next to one that moved are looked at again.
-    active = ~fixed
-    for _ in range(sweeps):
-        woken = np.zeros(p.shape[0], dtype=np.bool_)
-        for v in range(p.shape[0]):
-            if not active[v] or start[v + 1] == start[v]:
-                continue
-            sx, sy, cnt = 0.0, 0.0, 0
+) -> BoolArray:  # fmt: skip  # pragma: no cover - compiled
+    """One sweep over the ``active`` nodes; returns the nodes of the stars that moved."""
+    woken = np.zeros(p.shape[0], dtype=np.bool_)
+    for v in range(p.shape[0]):
+        if not active[v] or start[v + 1] == start[v]:
+            continue
+        sx, sy, cnt = 0.0, 0.0, 0
+        for k in range(start[v], start[v + 1]):
+            for j in range(3):
+                w = t[tri_of[k], j]
+                if w != v:
+                    sx, sy, cnt = sx + p[w, 0], sy + p[w, 1], cnt + 1
+        worst, total, shape = _star_rr(p, t, start, tri_of, v)
+        least, least_shape = min(worst, limits.floor), min(shape, limits.shape_floor)
+        ox, oy = p[v, 0], p[v, 1]
+        tx, ty = sx / cnt - ox, sy / cnt - oy
+        gained = total
+        for step in (1.0, 0.5, 0.25):
+            p[v, 0], p[v, 1] = ox + step * tx, oy + step * ty
+            new = _star_rr(p, t, start, tri_of, v)
+            if new[1] > total + MEAN_GAIN and _allowed(new, least, least_shape):
+                gained = new[1]
+                break
+            p[v, 0], p[v, 1] = ox, oy
+        if limits.iterations > 0 and worst < limits.below:
+            # The centroid is a guess: a short search finds the sum's maximum nearby.
+            cx, cy = p[v, 0], p[v, 1]
+            searched = _ascent(
+                p, t, start, tri_of, v, gained, least, least_shape, limits.iterations
+            )
+            if searched > total + MEAN_GAIN:
+                gained = searched
+            else:
+                p[v, 0], p[v, 1] = cx, cy
+        if gained > total + MEAN_GAIN:
             for k in range(start[v], start[v + 1]):
                 for j in range(3):
-                    w = t[tri_of[k], j]
-                    if w != v:
-                        sx, sy, cnt = sx + p[w, 0], sy + p[w, 1], cnt + 1
-            worst, total, shape = _star_rr(p, t, start, tri_of, v)
-            least, least_shape = min(worst, limits.floor), min(shape, limits.shape_floor)
-            ox, oy = p[v, 0], p[v, 1]
-            tx, ty = sx / cnt - ox, sy / cnt - oy
-            gained = total
-            for step in (1.0, 0.5, 0.25):
-                p[v, 0], p[v, 1] = ox + step * tx, oy + step * ty
-                new = _star_rr(p, t, start, tri_of, v)
-                if new[1] > total + MEAN_GAIN and _allowed(new, least, least_shape):
-                    gained = new[1]
-                    break
-                p[v, 0], p[v, 1] = ox, oy
-            if limits.iterations > 0 and worst < limits.below:
-                # The centroid is a guess: a short search finds the sum's maximum nearby.
-                cx, cy = p[v, 0], p[v, 1]
-                searched = _ascent(
-                    p, t, start, tri_of, v, gained, least, least_shape, limits.iterations
-                )
-                if searched > total + MEAN_GAIN:
-                    gained = searched
-                else:
-                    p[v, 0], p[v, 1] = cx, cy
-            if gained > total + MEAN_GAIN:
-                moved += 1
-                for k in range(start[v], start[v + 1]):
-                    for j in range(3):
-                        woken[t[tri_of[k], j]] = True
-        active = woken & ~fixed
-    return moved
+                    woken[t[tri_of[k], j]] = True
+    return woken
 
 
 def relax_mean(
@@ -324,10 +319,16 @@ def relax_mean(
     points = mesh.points.copy()
     if sweeps <= 0 or mesh.n_triangles == 0:
         return Mesh(points, mesh.triangles)
-    worst = float(radius_ratio(points, mesh.triangles).min())
-    worst_shape = float(shape_quality(points, mesh.triangles).min())
     start, tri_of = node_stars(mesh.triangles, mesh.n_points)
-    fixed = np.ascontiguousarray(mesh.boundary_nodes)
-    limits = MeanLimits(max(floor, worst), max(floor, worst_shape), iterations, below)
-    _relax_mean(points, mesh.triangles, fixed, start, tri_of, sweeps, limits)
+    free = ~mesh.boundary_nodes
+    active = free.copy()
+    for _ in range(sweeps):
+        if not active.any():
+            break
+        # The floors follow the mesh's worst as it rises: a worst lifted by one sweep is kept.
+        worst = float(radius_ratio(points, mesh.triangles).min())
+        worst_shape = float(shape_quality(points, mesh.triangles).min())
+        limits = MeanLimits(max(floor, worst), max(floor, worst_shape), iterations, below)
+        # After the first sweep only nodes next to one that moved are looked at again.
+        active = _relax_mean(points, mesh.triangles, active, start, tri_of, limits) & free
     return Mesh(points, mesh.triangles)
