@@ -9,6 +9,7 @@ meshers smooth their output by default.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numba as nb
 import numpy as np
@@ -19,7 +20,7 @@ from .mesh import Mesh
 from .quality import radius_ratio, shape_quality
 from .result import StopFn
 
-__all__ = ["node_stars", "radius_ratio_xy", "relax", "relax_mean"]
+__all__ = ["MeanLimits", "node_stars", "radius_ratio_xy", "relax", "relax_mean"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -31,10 +32,14 @@ COMPASS_ITERATIONS = 12
 #: :func:`relax_mean` moves a node only for at least this gain in its star's summed radius ratio.
 MEAN_GAIN = 1e-4
 #: Sweeps of :func:`relax_mean`.
-MEAN_SWEEPS = 3
+MEAN_SWEEPS = 8
 #: :func:`relax_mean` lets a star's worst radius ratio fall to this (or to the mesh's worst,
 #: when higher), never lower.
 MEAN_FLOOR = 0.8
+#: Gradient-ascent steps of :func:`relax_mean` after its centroid trial ...
+MEAN_ITERATIONS = 2
+#: ... at nodes whose star's worst radius ratio is below this.
+MEAN_BELOW = 0.95
 
 
 def node_stars(triangles: IntArray, n_points: int) -> tuple[IntArray, IntArray]:
@@ -191,51 +196,109 @@ def _star_rr(
     return worst, total, shape
 
 
+class MeanLimits(NamedTuple):
+    """What :func:`relax_mean`'s kernel may do to a star (a named tuple: numba takes it whole)."""
+
+    #: Lowest worst radius ratio and shape quality a star may fall to (unless already lower).
+    floor: float
+    shape_floor: float
+    #: Gradient-ascent steps after the centroid trial (0: the centroid trial alone) ...
+    iterations: int
+    #: ... for nodes whose star's worst radius ratio is below this.
+    below: float
+
+
+@nb.njit(cache=True, inline="always")
+def _allowed(new: tuple[float, float, float], least: float, least_shape: float) -> bool:
+    return new[0] >= least and new[2] >= least_shape and new[0] > 0.0
+
+
+@nb.njit(cache=True)
+def _ascent(
+    p: FloatArray, t: IntArray, start: IntArray, tri_of: IntArray, v: int, total: float,
+    least: float, least_shape: float, iterations: int,
+) -> float:  # fmt: skip  # pragma: no cover - compiled
+    """Move ``v`` up the gradient of its star's summed radius ratio (a difference quotient,
+    then the longest of a fifth, tenth, twentieth or fortieth of the shortest star edge that
+    raises the sum within the floors); returns the new sum."""
+    edge = _shortest_edge(p, t, start, tri_of, v)
+    eps = 1e-4 * edge
+    for _ in range(iterations):
+        ox, oy = p[v, 0], p[v, 1]
+        p[v, 0] = ox + eps
+        gx = _star_rr(p, t, start, tri_of, v)[1] - total
+        p[v, 0], p[v, 1] = ox, oy + eps
+        gy = _star_rr(p, t, start, tri_of, v)[1] - total
+        norm = math.hypot(gx, gy)
+        p[v, 0], p[v, 1] = ox, oy
+        if norm == 0.0:
+            break
+        improved = False
+        for share in (0.2, 0.1, 0.05, 0.025):
+            p[v, 0] = ox + share * edge * gx / norm
+            p[v, 1] = oy + share * edge * gy / norm
+            new = _star_rr(p, t, start, tri_of, v)
+            if new[1] > total and _allowed(new, least, least_shape):
+                total, improved = new[1], True
+                break
+        if not improved:
+            p[v, 0], p[v, 1] = ox, oy
+            break
+    return total
+
+
 @nb.njit(cache=True)
 def _relax_mean(
-    p: FloatArray,
-    t: IntArray,
-    fixed: BoolArray,
-    start: IntArray,
-    tri_of: IntArray,
-    sweeps: int,
-    floor: float,
-    shape_floor: float,
-) -> int:  # pragma: no cover - compiled
-    moved = 0
-    # After the first sweep only nodes next to one that moved are looked at again.
-    active = ~fixed
-    for _ in range(sweeps):
-        woken = np.zeros(p.shape[0], dtype=np.bool_)
-        for v in range(p.shape[0]):
-            if not active[v] or start[v + 1] == start[v]:
-                continue
-            sx, sy, cnt = 0.0, 0.0, 0
+    p: FloatArray, t: IntArray, active: BoolArray, start: IntArray, tri_of: IntArray,
+    limits: MeanLimits,
+) -> BoolArray:  # fmt: skip  # pragma: no cover - compiled
+    """One sweep over the ``active`` nodes; returns the nodes of the stars that moved."""
+    woken = np.zeros(p.shape[0], dtype=np.bool_)
+    for v in range(p.shape[0]):
+        if not active[v] or start[v + 1] == start[v]:
+            continue
+        sx, sy, cnt = 0.0, 0.0, 0
+        for k in range(start[v], start[v + 1]):
+            for j in range(3):
+                w = t[tri_of[k], j]
+                if w != v:
+                    sx, sy, cnt = sx + p[w, 0], sy + p[w, 1], cnt + 1
+        worst, total, shape = _star_rr(p, t, start, tri_of, v)
+        least, least_shape = min(worst, limits.floor), min(shape, limits.shape_floor)
+        ox, oy = p[v, 0], p[v, 1]
+        tx, ty = sx / cnt - ox, sy / cnt - oy
+        gained = total
+        for step in (1.0, 0.5, 0.25):
+            p[v, 0], p[v, 1] = ox + step * tx, oy + step * ty
+            new = _star_rr(p, t, start, tri_of, v)
+            if new[1] > total + MEAN_GAIN and _allowed(new, least, least_shape):
+                gained = new[1]
+                break
+            p[v, 0], p[v, 1] = ox, oy
+        if limits.iterations > 0 and worst < limits.below:
+            # The centroid is a guess: a short search finds the sum's maximum nearby.
+            cx, cy = p[v, 0], p[v, 1]
+            searched = _ascent(
+                p, t, start, tri_of, v, gained, least, least_shape, limits.iterations
+            )
+            if searched > total + MEAN_GAIN:
+                gained = searched
+            else:
+                p[v, 0], p[v, 1] = cx, cy
+        if gained > total + MEAN_GAIN:
             for k in range(start[v], start[v + 1]):
                 for j in range(3):
-                    w = t[tri_of[k], j]
-                    if w != v:
-                        sx, sy, cnt = sx + p[w, 0], sy + p[w, 1], cnt + 1
-            worst, total, shape = _star_rr(p, t, start, tri_of, v)
-            least, least_shape = min(worst, floor), min(shape, shape_floor)
-            ox, oy = p[v, 0], p[v, 1]
-            tx, ty = sx / cnt - ox, sy / cnt - oy
-            for step in (1.0, 0.5, 0.25):
-                p[v, 0], p[v, 1] = ox + step * tx, oy + step * ty
-                new_worst, new_total, new_shape = _star_rr(p, t, start, tri_of, v)
-                kept = new_worst >= least and new_shape >= least_shape and new_worst > 0.0
-                if new_total > total + MEAN_GAIN and kept:
-                    moved += 1
-                    for k in range(start[v], start[v + 1]):
-                        for j in range(3):
-                            woken[t[tri_of[k], j]] = True
-                    break
-                p[v, 0], p[v, 1] = ox, oy
-        active = woken & ~fixed
-    return moved
+                    woken[t[tri_of[k], j]] = True
+    return woken
 
 
-def relax_mean(mesh: Mesh, sweeps: int = MEAN_SWEEPS, floor: float = MEAN_FLOOR) -> Mesh:
+def relax_mean(
+    mesh: Mesh,
+    sweeps: int = MEAN_SWEEPS,
+    floor: float = MEAN_FLOOR,
+    iterations: int = MEAN_ITERATIONS,
+    below: float = MEAN_BELOW,
+) -> Mesh:
     """The mesh after ``sweeps`` of relaxation for the mean radius ratio (boundary fixed).
 
     Each free node moves toward the centroid of its neighbours (a full, half or quarter step)
@@ -243,7 +306,10 @@ def relax_mean(mesh: Mesh, sweeps: int = MEAN_SWEEPS, floor: float = MEAN_FLOOR)
     the lower of its old worst and ``max(floor, the mesh's worst)``, in radius ratio and in
     shape quality alike: the mesh's worst triangle never gets worse by either measure, while a
     star well above it may give a little of its worst for its mean (:func:`relax` never gives
-    any, and leaves graded bands below gmsh's mean).
+    any, and leaves graded bands below gmsh's mean). At a node whose star's worst is below
+    ``below`` up to ``iterations`` gradient-ascent steps on that sum follow (the centroid is only
+    a guess at its maximum), under the same floors. After the first sweep only nodes next to
+    one that moved are looked at again.
 
     >>> pts = np.array([[0.0, 0], [1, 0], [1, 1], [0, 1], [0.8, 0.7]])
     >>> tris = np.array([[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]])
@@ -253,10 +319,16 @@ def relax_mean(mesh: Mesh, sweeps: int = MEAN_SWEEPS, floor: float = MEAN_FLOOR)
     points = mesh.points.copy()
     if sweeps <= 0 or mesh.n_triangles == 0:
         return Mesh(points, mesh.triangles)
-    worst = float(radius_ratio(points, mesh.triangles).min())
-    worst_shape = float(shape_quality(points, mesh.triangles).min())
     start, tri_of = node_stars(mesh.triangles, mesh.n_points)
-    fixed = np.ascontiguousarray(mesh.boundary_nodes)
-    floors = max(floor, worst), max(floor, worst_shape)
-    _relax_mean(points, mesh.triangles, fixed, start, tri_of, sweeps, *floors)
+    free = ~mesh.boundary_nodes
+    active = free.copy()
+    for _ in range(sweeps):
+        if not active.any():
+            break
+        # The floors follow the mesh's worst as it rises: a worst lifted by one sweep is kept.
+        worst = float(radius_ratio(points, mesh.triangles).min())
+        worst_shape = float(shape_quality(points, mesh.triangles).min())
+        limits = MeanLimits(max(floor, worst), max(floor, worst_shape), iterations, below)
+        # After the first sweep only nodes next to one that moved are looked at again.
+        active = _relax_mean(points, mesh.triangles, active, start, tri_of, limits) & free
     return Mesh(points, mesh.triangles)
