@@ -12,7 +12,8 @@ from engine import PipelineParams, SizingParams, SmoothingParams, mesh_then_smoo
 from engine.errors import InvalidBoundary
 from engine.mesh import Mesh, edge_table, validate_mesh
 from engine.quality import corner_angles, shape_quality
-from engine.swap import regularise_valence, swap_diagonals
+from engine.relax import node_stars
+from engine.swap import _neighbours, regularise_valence, swap_diagonals
 
 from ..conftest import DATA
 from .random_meshes import meshes, random_mesh
@@ -206,3 +207,27 @@ def test_the_pipeline_never_ends_below_its_starting_worst(case: tuple[Rings, flo
     final = result.smoothed.mesh
     validate_mesh(final.points, final.triangles)
     assert result.smoothed.quality.quality.min() >= result.initial.quality.quality.min() - 1e-12
+
+
+def _sorted_neighbours(tri: np.ndarray) -> np.ndarray:
+    """The triangle across each side by sorting the sides (what _neighbours computed before)."""
+    _, _, edge_of = edge_table(tri)
+    flat = edge_of.ravel()
+    order = np.argsort(flat, kind="stable")
+    nbr = np.full(flat.size, -1, dtype=np.int64)
+    same = flat[order[1:]] == flat[order[:-1]]
+    nbr[order[:-1][same]] = order[1:][same] // 3
+    nbr[order[1:][same]] = order[:-1][same] // 3
+    return nbr.reshape(-1, 3)
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), nodes=st.integers(3, 40))
+def test_neighbours_and_stars_match_the_sorting_statements(seed: int, nodes: int) -> None:
+    # Random corner triples: non-manifold edges and repeated corners included.
+    rng = np.random.default_rng(seed)
+    tri = rng.integers(0, nodes, (int(rng.integers(1, 3 * nodes)), 3))
+    np.testing.assert_array_equal(_neighbours(tri), _sorted_neighbours(tri))
+    start, tri_of = node_stars(tri, nodes + 2)
+    np.testing.assert_array_equal(tri_of, np.argsort(tri.ravel(), kind="stable") // 3)
+    np.testing.assert_array_equal(np.diff(start), np.bincount(tri.ravel(), minlength=nodes + 2))
