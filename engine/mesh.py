@@ -4,17 +4,19 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
+from typing import TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import InvalidMesh
 
-__all__ = ["Mesh", "edge_table", "triangle_areas", "validate_mesh"]
+__all__ = ["Mesh", "edge_table", "keeps_boundary", "triangle_areas", "validate_mesh"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 BoolArray = NDArray[np.bool_]
+MeshT = TypeVar("MeshT", bound="Mesh")
 
 
 def triangle_areas(points: FloatArray, triangles: IntArray) -> FloatArray:
@@ -105,8 +107,22 @@ class Mesh:
         return mask
 
     def with_points(self, points: FloatArray) -> Mesh:
-        """The same connectivity with moved vertices."""
-        return Mesh(points, self.triangles)
+        """The same connectivity with moved vertices (and so the same boundary edges: when
+        already found they carry over rather than being searched for again)."""
+        moved = Mesh(points, self.triangles)
+        if "boundary_edges" in self.__dict__:  # a cached_property's value lives there
+            moved.__dict__["boundary_edges"] = self.__dict__["boundary_edges"]
+        return moved
+
+
+def keeps_boundary(mesh: MeshT, source: Mesh) -> MeshT:
+    """``mesh``, made from ``source`` by moving interior nodes and flipping interior edges
+    (which keep every boundary node one, and every other node not), told that its boundary
+    nodes are ``source``'s so that they are not searched for again; ``mesh`` as it is when its
+    class differs (a subclass may count other nodes as boundary)."""
+    if type(mesh) is type(source):
+        mesh.__dict__["boundary_nodes"] = source.boundary_nodes
+    return mesh
 
 
 def _whole_numbers(values: NDArray[np.generic]) -> bool:

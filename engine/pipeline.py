@@ -17,7 +17,7 @@ from .errors import Cancelled, LimitExceeded
 from .estimate import estimate_triangles
 from .fitness import node_fitness
 from .front import advance_front
-from .mesh import Mesh
+from .mesh import Mesh, keeps_boundary
 from .params import PipelineParams, SizingParams, SmoothingParams
 from .quality import shape_quality, summarize, triangle_quality
 from .relax import relax, relax_mean
@@ -241,7 +241,8 @@ def improve_mesh(
     swapped_mesh = initial
     if swap:
         flipped = swap_diagonals(initial, locked, relax=relax)
-        swapped_mesh = replace(initial, points=flipped.points, triangles=flipped.triangles)
+        swapped = replace(initial, points=flipped.points, triangles=flipped.triangles)
+        swapped_mesh = keeps_boundary(swapped, initial)
     progress("swap", 1.0)
     timings["swap"] = time.perf_counter() - t
     t = time.perf_counter()
@@ -251,6 +252,7 @@ def improve_mesh(
     regular = regularise_valence(swapped_mesh, locked) if swap and relax else None
     if regular is not None:
         regular = replace(initial, points=regular.points, triangles=regular.triangles)
+        regular = keeps_boundary(regular, initial)
     if regular is None:
         outcome = smooth_points(swapped_mesh, smoothing, rng, progress, should_stop)
     else:
@@ -267,7 +269,7 @@ def improve_mesh(
             swapped_mesh = regular
     if smoothing.method != "none":  # a last settling for the mean, never worse at the worst
         # replace, not with_points: a PinnedMesh keeps its pins (they must not move either)
-        settled = relax_mean(replace(swapped_mesh, points=outcome.points))
+        settled = relax_mean(keeps_boundary(replace(swapped_mesh, points=outcome.points), initial))
         if not np.array_equal(settled.points, outcome.points):  # the GA's fitness is stale
             outcome = replace(outcome, points=settled.points, fitness=None)
     # Assessed once, when it is known which mesh the smoother kept (unchanged: not again).

@@ -207,6 +207,11 @@ def test_the_pipeline_never_ends_below_its_starting_worst(case: tuple[Rings, flo
     final = result.smoothed.mesh
     validate_mesh(final.points, final.triangles)
     assert result.smoothed.quality.quality.min() >= result.initial.quality.quality.min() - 1e-12
+    # The boundary the stages carried over (keeps_boundary, with_points) is the one found anew.
+    for snap in (result.initial, result.swapped, result.smoothed):
+        fresh = Mesh(snap.mesh.points, snap.mesh.triangles)
+        np.testing.assert_array_equal(snap.mesh.boundary_nodes, fresh.boundary_nodes)
+        np.testing.assert_array_equal(snap.mesh.boundary_edges, fresh.boundary_edges)
 
 
 def _sorted_neighbours(tri: np.ndarray) -> np.ndarray:
