@@ -174,7 +174,7 @@ def relax(
         if should_stop is not None and should_stop():
             raise Cancelled("stopped while relaxing the mesh")
         _relax(points, mesh.triangles, np.ascontiguousarray(mask), start, tri_of, 1)
-    return Mesh(points, mesh.triangles)
+    return mesh.with_points(points)
 
 
 @nb.njit(cache=True, inline="always")
