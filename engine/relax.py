@@ -35,6 +35,9 @@ MEAN_SWEEPS = 3
 #: :func:`relax_mean` lets a star's worst radius ratio fall to this (or to the mesh's worst,
 #: when higher), never lower.
 MEAN_FLOOR = 0.8
+#: The compass directions of the targeted move (the values ``math.cos(d * pi / 4)`` gives).
+_COS = np.array([math.cos(d * math.pi / 4.0) for d in range(8)])
+_SIN = np.array([math.sin(d * math.pi / 4.0) for d in range(8)])
 
 
 def node_stars(triangles: IntArray, n_points: int) -> tuple[IntArray, IntArray]:
@@ -96,7 +99,7 @@ def _relax(
             done = False
             for step in (1.0, 0.5):
                 p[v, 0], p[v, 1] = ox + step * tx, oy + step * ty
-                new_worst = _star_worst(p, t, start, tri_of, v)
+                new_worst = _star_worst(p, t, start, tri_of, v, worst)
                 if new_worst >= worst and new_worst > 0.0:
                     moved += 1
                     done = True
@@ -112,10 +115,9 @@ def _relax(
             for _ in range(COMPASS_ITERATIONS):
                 improved = False
                 for d in range(8):
-                    ang = d * math.pi / 4.0
-                    p[v, 0] = bx + step * math.cos(ang)
-                    p[v, 1] = by + step * math.sin(ang)
-                    q = _star_worst(p, t, start, tri_of, v)
+                    p[v, 0] = bx + step * _COS[d]
+                    p[v, 1] = by + step * _SIN[d]
+                    q = _star_worst(p, t, start, tri_of, v, best)
                     if q > best:
                         best, nbx, nby, improved = q, p[v, 0], p[v, 1], True
                 if improved:
@@ -129,10 +131,16 @@ def _relax(
 
 
 @nb.njit(cache=True, inline="always")
-def _star_worst(p: FloatArray, t: IntArray, start: IntArray, tri_of: IntArray, v: int) -> float:
+def _star_worst(
+    p: FloatArray, t: IntArray, start: IntArray, tri_of: IntArray, v: int, floor: float
+) -> float:
+    """Worst quality around ``v``, or any value below ``floor`` once the worst is known to
+    be below it (the callers only compare it with ``floor``)."""
     worst = np.inf
     for k in range(start[v], start[v + 1]):
         worst = min(worst, _q(p, t, tri_of[k]))
+        if worst < floor:
+            return worst
     return worst
 
 
