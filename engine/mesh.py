@@ -6,12 +6,20 @@ from dataclasses import dataclass
 from functools import cached_property
 from typing import TypeVar
 
+import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import InvalidMesh
 
-__all__ = ["Mesh", "edge_table", "keeps_boundary", "triangle_areas", "validate_mesh"]
+__all__ = [
+    "Mesh",
+    "corner_order",
+    "edge_table",
+    "keeps_boundary",
+    "triangle_areas",
+    "validate_mesh",
+]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -55,6 +63,30 @@ def _edge_codes(sides: IntArray) -> IntArray:
     hi = np.maximum(sides[:, 0], sides[:, 1]).astype(np.int64)
     n = np.int64(hi.max()) + 1 if len(hi) else np.int64(1)
     return lo * n + hi
+
+
+def corner_order(corners: IntArray) -> IntArray:
+    """``np.argsort(corners.ravel(), kind="stable")`` of node numbers (non-negative) by a
+    counting sort, several times faster: the order of the stars of all nodes.
+
+    >>> corner_order(np.array([[2, 0, 1], [0, 3, 2]])).tolist()
+    [1, 3, 2, 0, 5, 4]
+    """
+    flat = np.ascontiguousarray(corners, dtype=np.int64).ravel()
+    counts = np.bincount(flat)
+    starts = np.zeros(len(counts), dtype=np.int64)
+    np.cumsum(counts[:-1], out=starts[1:])
+    return _counting_order(flat, starts)
+
+
+@numba.njit(cache=True)
+def _counting_order(flat: IntArray, starts: IntArray) -> IntArray:  # pragma: no cover
+    fill = starts.copy()
+    order = np.empty(len(flat), dtype=np.int64)
+    for i in range(len(flat)):
+        order[fill[flat[i]]] = i
+        fill[flat[i]] += 1
+    return order
 
 
 @dataclass(frozen=True)

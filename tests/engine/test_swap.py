@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 
 from engine import PipelineParams, SizingParams, SmoothingParams, mesh_then_smooth
 from engine.errors import InvalidBoundary
-from engine.mesh import Mesh, edge_table, validate_mesh
+from engine.mesh import Mesh, corner_order, edge_table, validate_mesh
 from engine.quality import corner_angles, shape_quality
 from engine.relax import node_stars
 from engine.swap import _neighbours, regularise_valence, swap_diagonals
@@ -234,5 +234,6 @@ def test_neighbours_and_stars_match_the_sorting_statements(seed: int, nodes: int
     tri = rng.integers(0, nodes, (int(rng.integers(1, 3 * nodes)), 3))
     np.testing.assert_array_equal(_neighbours(tri), _sorted_neighbours(tri))
     start, tri_of = node_stars(tri, nodes + 2)
+    np.testing.assert_array_equal(corner_order(tri), np.argsort(tri.ravel(), kind="stable"))
     np.testing.assert_array_equal(tri_of, np.argsort(tri.ravel(), kind="stable") // 3)
     np.testing.assert_array_equal(np.diff(start), np.bincount(tri.ravel(), minlength=nodes + 2))
