@@ -83,7 +83,7 @@ def _gather(
     return count
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _merged_worst(
     xy: FloatArray, mover: IntArray, count: int, x: float, y: float, floor: float
 ) -> float:  # pragma: no cover - compiled
