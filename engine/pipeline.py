@@ -65,8 +65,8 @@ SUBSTAGES: dict[str, tuple[str, float, float]] = {
 #: the assessments of the initial and swapped meshes count with "swap", the final one with
 #: "smooth").
 STAGE_WEIGHTS: dict[str, dict[str, float]] = {
-    "poor": {"boundary": 0.06, "mesh": 0.50, "swap": 0.24, "smooth": 0.20},
-    "all": {"boundary": 0.01, "mesh": 0.10, "swap": 0.07, "smooth": 0.82},
+    "poor": {"boundary": 0.07, "mesh": 0.46, "swap": 0.13, "smooth": 0.34},
+    "all": {"boundary": 0.02, "mesh": 0.11, "swap": 0.03, "smooth": 0.84},
 }
 
 
@@ -82,7 +82,7 @@ def job_progress(
     >>> progress = job_progress(lambda percent, words: seen.append((percent, words)))
     >>> progress("mesh", 1.0); progress("smooth", 0.5); progress("swap", 1.0)
     >>> seen
-    [(55, 'meshing (advancing front)'), (89, 'smoothing'), (89, 'swapping diagonals')]
+    [(52, 'meshing (advancing front)'), (82, 'smoothing'), (82, 'swapping diagonals')]
     """
     smoothing = smoothing or SmoothingParams()
     weights = STAGE_WEIGHTS[smoothing.selection if smoothing.method == "ga" else "poor"]
