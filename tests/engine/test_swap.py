@@ -226,12 +226,23 @@ def _sorted_neighbours(tri: np.ndarray) -> np.ndarray:
     return nbr.reshape(-1, 3)
 
 
+def _sorted_edge_table(tri: np.ndarray) -> tuple[np.ndarray, ...]:
+    """edge_table by sorting the sides' codes (what it computed before)."""
+    sides = np.stack([tri[:, [1, 2]], tri[:, [2, 0]], tri[:, [0, 1]]], axis=1).reshape(-1, 2)
+    n = int(tri.max()) + 1
+    codes = sides.min(axis=1) * n + sides.max(axis=1)
+    unique, inverse, count = np.unique(codes, return_inverse=True, return_counts=True)
+    return np.stack([unique // n, unique % n], axis=1), count, inverse.reshape(-1, 3)
+
+
 @settings(max_examples=60, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), nodes=st.integers(3, 40))
 def test_neighbours_and_stars_match_the_sorting_statements(seed: int, nodes: int) -> None:
     # Random corner triples: non-manifold edges and repeated corners included.
     rng = np.random.default_rng(seed)
     tri = rng.integers(0, nodes, (int(rng.integers(1, 3 * nodes)), 3))
+    for got, want in zip(edge_table(tri), _sorted_edge_table(tri), strict=True):
+        np.testing.assert_array_equal(got, want)
     np.testing.assert_array_equal(_neighbours(tri), _sorted_neighbours(tri))
     start, tri_of = node_stars(tri, nodes + 2)
     np.testing.assert_array_equal(corner_order(tri), np.argsort(tri.ravel(), kind="stable"))
