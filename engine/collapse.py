@@ -54,30 +54,60 @@ _HOPELESS = 0.3
 
 
 @nb.njit(cache=True)
-def _merged_worst(
+def _gather(
     p: FloatArray,
     t: IntArray,
     start: IntArray,
     tri_of: IntArray,
     a: int,
     b: int,
-    x: float,
-    y: float,
-) -> float:  # pragma: no cover - compiled
-    """Worst quality of the triangles around a and b once both are one node at (x, y)."""
-    worst = np.inf
+    xy: FloatArray,
+    mover: IntArray,
+) -> int:  # pragma: no cover - compiled
+    """Corners (rows of ``xy``: x0, y0, x1, y1, x2, y2) of the triangles around a and b that
+    outlive their collapse, and which corner (``mover``) is the merged node; returns their
+    count. Gathered once per edge, as every trial position of the merged node reads them."""
+    count = 0
     for v in (a, b):
         for k in range(start[v], start[v + 1]):
             tr = tri_of[k]
-            i, j, m = t[tr, 0], t[tr, 1], t[tr, 2]
-            has_a = i == a or j == a or m == a
-            has_b = i == b or j == b or m == b
+            has_a = t[tr, 0] == a or t[tr, 1] == a or t[tr, 2] == a
+            has_b = t[tr, 0] == b or t[tr, 1] == b or t[tr, 2] == b
             if has_a and has_b:
                 continue  # the edge's own triangles vanish
-            ix, iy = (x, y) if i == v else (p[i, 0], p[i, 1])
-            jx, jy = (x, y) if j == v else (p[j, 0], p[j, 1])
-            mx, my = (x, y) if m == v else (p[m, 0], p[m, 1])
-            worst = min(worst, shape_quality_xy(ix, iy, jx, jy, mx, my))
+            for j in range(3):
+                xy[count, 2 * j], xy[count, 2 * j + 1] = p[t[tr, j], 0], p[t[tr, j], 1]
+                if t[tr, j] == v:
+                    mover[count] = j
+            count += 1
+    return count
+
+
+@nb.njit(cache=True, inline="always")
+def _merged_worst(
+    xy: FloatArray, mover: IntArray, count: int, x: float, y: float, floor: float
+) -> float:  # pragma: no cover - compiled
+    """Worst quality of the ``count`` gathered triangles (:func:`_gather`) with the merged
+    node at (x, y), or any value at or below ``floor`` once the worst is known to be there:
+    the callers only ask whether it beats ``floor``. The triangle that ended a call moves to
+    the front (a minimum does not depend on the order), so the next trial, nearby, usually
+    fails on its first triangle."""
+    worst = np.inf
+    for k in range(count):
+        x0, y0, x1, y1, x2, y2 = xy[k, 0], xy[k, 1], xy[k, 2], xy[k, 3], xy[k, 4], xy[k, 5]
+        if mover[k] == 0:
+            x0, y0 = x, y
+        elif mover[k] == 1:
+            x1, y1 = x, y
+        else:
+            x2, y2 = x, y
+        worst = min(worst, shape_quality_xy(x0, y0, x1, y1, x2, y2))
+        if worst <= floor:
+            if k > 0:
+                for j in range(6):
+                    xy[0, j], xy[k, j] = xy[k, j], xy[0, j]
+                mover[0], mover[k] = mover[k], mover[0]
+            return worst
     return worst
 
 
@@ -121,9 +151,17 @@ def _evaluate(
     cannot collapse.
     """
     c = len(ends)
+    # The compass directions, once (the same values as computed at each step).
+    dx = np.array([math.cos(d * math.pi / 4.0) for d in range(8)])
+    dy = np.array([math.sin(d * math.pi / 4.0) for d in range(8)])
     before = np.full(c, np.inf)
     after = np.full(c, -np.inf)
     pos = np.zeros((c, 2))
+    most = 0
+    for v in range(len(start) - 1):
+        most = max(most, start[v + 1] - start[v])
+    xy = np.empty((2 * most, 6))
+    mover = np.empty(2 * most, dtype=np.int64)
     for i in range(c):
         a, b = ends[i, 0], ends[i, 1]
         for v in (a, b):
@@ -131,15 +169,16 @@ def _evaluate(
                 before[i] = min(before[i], tq[tri_of[k]])
         if not _linked(t, start, tri_of, a, b):
             continue
+        count = _gather(p, t, start, tri_of, a, b, xy, mover)
         if fixed[a]:
             bx, by = p[a, 0], p[a, 1]
-            best = _merged_worst(p, t, start, tri_of, a, b, bx, by)
+            best = _merged_worst(xy, mover, count, bx, by, -np.inf)
         else:
             bx, by, best = p[a, 0], p[a, 1], -np.inf
             for s in (0.0, 0.5, 1.0):
                 x = p[a, 0] + s * (p[b, 0] - p[a, 0])
                 y = p[a, 1] + s * (p[b, 1] - p[a, 1])
-                w = _merged_worst(p, t, start, tri_of, a, b, x, y)
+                w = _merged_worst(xy, mover, count, x, y, best)
                 if w > best:
                     bx, by, best = x, y, w
             step = math.hypot(p[b, 0] - p[a, 0], p[b, 1] - p[a, 1]) / 2.0
@@ -148,9 +187,8 @@ def _evaluate(
                 improved = False
                 nx, ny = bx, by
                 for d in range(8):
-                    ang = d * math.pi / 4.0
-                    x, y = bx + step * math.cos(ang), by + step * math.sin(ang)
-                    w = _merged_worst(p, t, start, tri_of, a, b, x, y)
+                    x, y = bx + step * dx[d], by + step * dy[d]
+                    w = _merged_worst(xy, mover, count, x, y, best)
                     if w > best:
                         best, nx, ny, improved = w, x, y, True
                 if improved:

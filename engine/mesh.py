@@ -4,18 +4,27 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from functools import cached_property
-from typing import Self
+from typing import Self, TypeVar
 
+import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import InvalidMesh
 
-__all__ = ["Mesh", "edge_table", "triangle_areas", "validate_mesh"]
+__all__ = [
+    "Mesh",
+    "corner_order",
+    "edge_table",
+    "keeps_boundary",
+    "triangle_areas",
+    "validate_mesh",
+]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 BoolArray = NDArray[np.bool_]
+MeshT = TypeVar("MeshT", bound="Mesh")
 
 
 def triangle_areas(points: FloatArray, triangles: IntArray) -> FloatArray:
@@ -38,14 +47,65 @@ def edge_table(triangles: IntArray) -> tuple[IntArray, IntArray, IntArray]:
     number of triangles holding each edge, ``edge_of`` (m, 3) the edge index of the side opposite
     each corner (side k joins corners k+1 and k+2).
     """
-    m = len(triangles)
-    sides = np.stack(
-        [triangles[:, [1, 2]], triangles[:, [2, 0]], triangles[:, [0, 1]]], axis=1
-    ).reshape(-1, 2)
-    codes, inverse, count = np.unique(_edge_codes(sides), return_inverse=True, return_counts=True)
-    n = np.int64(triangles.max()) + 1 if m else np.int64(1)
-    edges = np.stack([codes // n, codes % n], axis=1)
-    return edges.astype(np.int64), count.astype(np.int64), inverse.reshape(m, 3).astype(np.int64)
+    tri = np.ascontiguousarray(triangles, dtype=np.int64)
+    if len(tri) == 0:
+        empty = np.zeros((0, 2), dtype=np.int64)
+        return empty, np.zeros(0, dtype=np.int64), np.zeros((0, 3), dtype=np.int64)
+    return _edge_table(tri, corner_order(tri))
+
+
+@numba.njit(cache=True)
+def _edge_table(
+    tri: IntArray, order: IntArray
+) -> tuple[IntArray, IntArray, IntArray]:  # pragma: no cover - compiled
+    """:func:`edge_table` from the stars (``order``: :func:`corner_order`) rather than a sort
+    of every side: node by node, the sides whose smaller node it is, by their larger node, so
+    the edges come out sorted as the sort gave them."""
+    m = len(tri)
+    n = np.int64(0)
+    for i in range(m):
+        for k in range(3):
+            n = max(n, tri[i, k] + 1)
+    start = np.zeros(n + 1, dtype=np.int64)
+    for i in range(m):
+        for k in range(3):
+            start[tri[i, k] + 1] += 1
+    most = 0
+    for v in range(n):
+        most = max(most, start[v + 1])
+        start[v + 1] += start[v]
+    edges = np.empty((3 * m, 2), dtype=np.int64)
+    count = np.empty(3 * m, dtype=np.int64)
+    edge_of = np.empty((m, 3), dtype=np.int64)
+    his = np.empty(3 * most, dtype=np.int64)
+    keys = np.empty(3 * most, dtype=np.int64)
+    e = 0
+    for v in range(n):
+        size = 0
+        last = -1
+        for s in range(start[v], start[v + 1]):
+            t = order[s] // 3
+            if t == last:  # a repeated corner lists a triangle twice
+                continue
+            last = t
+            for k in range(3):
+                c, d = tri[t, (k + 1) % 3], tri[t, (k + 2) % 3]
+                if min(c, d) != v:
+                    continue
+                # Insertion by larger node, then by side: the sides of one edge stay together.
+                hi, key, j = max(c, d), 3 * t + k, size
+                while j > 0 and his[j - 1] > hi:
+                    his[j], keys[j] = his[j - 1], keys[j - 1]
+                    j -= 1
+                his[j], keys[j] = hi, key
+                size += 1
+        for j in range(size):
+            if j == 0 or his[j] != his[j - 1]:
+                edges[e, 0], edges[e, 1], count[e] = v, his[j], 0
+                e += 1
+            count[e - 1] += 1
+            edge_of[keys[j] // 3, keys[j] % 3] = e - 1
+    return edges[:e].copy(), count[:e].copy(), edge_of
 
 
 def _edge_codes(sides: IntArray) -> IntArray:
@@ -54,6 +114,30 @@ def _edge_codes(sides: IntArray) -> IntArray:
     hi = np.maximum(sides[:, 0], sides[:, 1]).astype(np.int64)
     n = np.int64(hi.max()) + 1 if len(hi) else np.int64(1)
     return lo * n + hi
+
+
+def corner_order(corners: IntArray) -> IntArray:
+    """``np.argsort(corners.ravel(), kind="stable")`` of node numbers (non-negative) by a
+    counting sort, several times faster: the order of the stars of all nodes.
+
+    >>> corner_order(np.array([[2, 0, 1], [0, 3, 2]])).tolist()
+    [1, 3, 2, 0, 5, 4]
+    """
+    flat = np.ascontiguousarray(corners, dtype=np.int64).ravel()
+    counts = np.bincount(flat)
+    starts = np.zeros(len(counts), dtype=np.int64)
+    np.cumsum(counts[:-1], out=starts[1:])
+    return _counting_order(flat, starts)
+
+
+@numba.njit(cache=True)
+def _counting_order(flat: IntArray, starts: IntArray) -> IntArray:  # pragma: no cover
+    fill = starts.copy()
+    order = np.empty(len(flat), dtype=np.int64)
+    for i in range(len(flat)):
+        order[fill[flat[i]]] = i
+        fill[flat[i]] += 1
+    return order
 
 
 @dataclass(frozen=True)
@@ -107,8 +191,22 @@ class Mesh:
 
     def with_points(self, points: FloatArray) -> Self:
         """The same connectivity with moved vertices, of the same class (a subclass keeps its
-        own fields: a :class:`~engine.constraints.PinnedMesh` its pins)."""
-        return replace(self, points=points)
+        own fields: a :class:`~engine.constraints.PinnedMesh` its pins), and so the same
+        boundary edges: when already found they carry over rather than being searched again."""
+        moved = replace(self, points=points)
+        if "boundary_edges" in self.__dict__:  # a cached_property's value lives there
+            moved.__dict__["boundary_edges"] = self.__dict__["boundary_edges"]
+        return moved
+
+
+def keeps_boundary(mesh: MeshT, source: Mesh) -> MeshT:
+    """``mesh``, made from ``source`` by moving interior nodes and flipping interior edges
+    (which keep every boundary node one, and every other node not), told that its boundary
+    nodes are ``source``'s so that they are not searched for again; ``mesh`` as it is when its
+    class differs (a subclass may count other nodes as boundary)."""
+    if type(mesh) is type(source):
+        mesh.__dict__["boundary_nodes"] = source.boundary_nodes
+    return mesh
 
 
 def _whole_numbers(values: NDArray[np.generic]) -> bool:

@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .errors import Cancelled
-from .mesh import Mesh
+from .mesh import Mesh, corner_order
 from .quality import radius_ratio, shape_quality
 from .result import StopFn
 
@@ -40,20 +40,23 @@ MEAN_FLOOR = 0.8
 MEAN_ITERATIONS = 2
 #: ... at nodes whose star's worst radius ratio is below this.
 MEAN_BELOW = 0.95
+#: The compass directions of the targeted move (the values ``math.cos(d * pi / 4)`` gives).
+_COS = np.array([math.cos(d * math.pi / 4.0) for d in range(8)])
+_SIN = np.array([math.sin(d * math.pi / 4.0) for d in range(8)])
 
 
 def node_stars(triangles: IntArray, n_points: int) -> tuple[IntArray, IntArray]:
-    """CSR of the triangles around each node: ``tri_of[start[v]:start[v + 1]]``.
+    """CSR of the triangles around each node: ``tri_of[start[v]:start[v + 1]]``, each star in
+    triangle order.
 
     >>> start, tri_of = node_stars(np.array([[0, 1, 2], [0, 2, 3]]), 4)
     >>> start.tolist(), tri_of.tolist()
     ([0, 2, 3, 5, 6], [0, 1, 0, 0, 1, 1])
     """
-    flat = triangles.ravel()
-    order = np.argsort(flat, kind="stable")
+    flat = np.ascontiguousarray(triangles, dtype=np.int64).ravel()
     counts = np.bincount(flat, minlength=n_points)
     start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-    return start, (order // 3).astype(np.int64)
+    return start, corner_order(flat) // 3
 
 
 @nb.njit(cache=True, inline="always")
@@ -91,7 +94,7 @@ def _relax(
             done = False
             for step in (1.0, 0.5):
                 p[v, 0], p[v, 1] = ox + step * tx, oy + step * ty
-                new_worst = _star_worst(p, t, start, tri_of, v)
+                new_worst = _star_worst(p, t, start, tri_of, v, worst)
                 if new_worst >= worst and new_worst > 0.0:
                     moved += 1
                     done = True
@@ -107,10 +110,9 @@ def _relax(
             for _ in range(COMPASS_ITERATIONS):
                 improved = False
                 for d in range(8):
-                    ang = d * math.pi / 4.0
-                    p[v, 0] = bx + step * math.cos(ang)
-                    p[v, 1] = by + step * math.sin(ang)
-                    q = _star_worst(p, t, start, tri_of, v)
+                    p[v, 0] = bx + step * _COS[d]
+                    p[v, 1] = by + step * _SIN[d]
+                    q = _star_worst(p, t, start, tri_of, v, best)
                     if q > best:
                         best, nbx, nby, improved = q, p[v, 0], p[v, 1], True
                 if improved:
@@ -124,10 +126,16 @@ def _relax(
 
 
 @nb.njit(cache=True, inline="always")
-def _star_worst(p: FloatArray, t: IntArray, start: IntArray, tri_of: IntArray, v: int) -> float:
+def _star_worst(
+    p: FloatArray, t: IntArray, start: IntArray, tri_of: IntArray, v: int, floor: float
+) -> float:
+    """Worst quality around ``v``, or any value below ``floor`` once the worst is known to
+    be below it (the callers only compare it with ``floor``)."""
     worst = np.inf
     for k in range(start[v], start[v + 1]):
         worst = min(worst, _q(p, t, tri_of[k]))
+        if worst < floor:
+            return worst
     return worst
 
 
@@ -169,7 +177,7 @@ def relax(
         if should_stop is not None and should_stop():
             raise Cancelled("stopped while relaxing the mesh")
         _relax(points, mesh.triangles, np.ascontiguousarray(mask), start, tri_of, 1)
-    return Mesh(points, mesh.triangles)
+    return mesh.with_points(points)
 
 
 @nb.njit(cache=True, inline="always")

@@ -24,6 +24,8 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from .mesh import corner_order
+
 __all__ = [
     "ANGLE",
     "ASPECT",
@@ -92,7 +94,7 @@ def build_stars(triangles: IntArray, n_points: int) -> Stars:
     """The stars of all ``n_points`` nodes of ``triangles`` (vectorised, O(m log m))."""
     t = np.asarray(triangles, dtype=np.int64)
     node = t.ravel()
-    order = np.argsort(node, kind="stable")  # stable: each star stays in triangle order
+    order = corner_order(node)  # stable: each star stays in triangle order
     tri = order // 3
     corner = order % 3
     ptr = np.zeros(n_points + 1, dtype=np.int64)

@@ -22,8 +22,9 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from .mesh import Mesh, edge_table
+from .mesh import Mesh
 from .quality import corner_angles, shape_quality
+from .relax import node_stars
 from .relax import relax as relax_nodes
 
 __all__ = ["regularise_valence", "swap_diagonals"]
@@ -199,16 +200,49 @@ def _flip_valence(
 
 def _neighbours(triangles: IntArray) -> IntArray:
     """Triangle across each side (side k opposite corner k), -1 on the boundary."""
-    m = len(triangles)
-    _, _, edge_of = edge_table(triangles)
-    flat = edge_of.ravel()
-    order = np.argsort(flat, kind="stable")
-    nbr = np.full(3 * m, -1, dtype=np.int64)
-    same = flat[order[1:]] == flat[order[:-1]]
-    first, second = order[:-1][same], order[1:][same]
-    nbr[first] = second // 3
-    nbr[second] = first // 3
-    return nbr.reshape(m, 3)
+    tri = np.ascontiguousarray(triangles, dtype=np.int64)
+    n = int(tri.max()) + 1 if len(tri) else 1
+    start, tri_of = node_stars(tri, n)
+    return _across(tri, start, tri_of)
+
+
+@numba.njit(cache=True)
+def _across(tri: IntArray, start: IntArray, tri_of: IntArray) -> IntArray:
+    """:func:`_neighbours` from the node stars, without sorting every side.
+
+    The sides of one undirected edge, in side order (``3 t + k``), are S0 < S1 < ...; S0 faces
+    S1's triangle and every later one the one before it, as the pairing of consecutive sorted
+    sides always gave (only a non-manifold edge has more than two).
+    """
+    m = len(tri)
+    nbr = np.full((m, 3), -1, dtype=np.int64)
+    for t in range(m):
+        for k in range(3):
+            a, b = tri[t, (k + 1) % 3], tri[t, (k + 2) % 3]
+            before, after = -1, -1  # sides of edge {a, b}: the last before this one, the next
+            found = False
+            last_tri = -1
+            for j in range(start[a], start[a + 1]):
+                t2 = tri_of[j]
+                if t2 == last_tri:  # a repeated corner lists a triangle twice
+                    continue
+                last_tri = t2
+                for k2 in range(3):
+                    c, d = tri[t2, (k2 + 1) % 3], tri[t2, (k2 + 2) % 3]
+                    if not ((c == a and d == b) or (c == b and d == a)):
+                        continue
+                    side = 3 * t2 + k2
+                    if side < 3 * t + k:
+                        before = side
+                    elif side == 3 * t + k:
+                        found = True
+                    elif found and after < 0:
+                        after = side
+            if before >= 0:
+                nbr[t, k] = before // 3
+            elif after >= 0:
+                nbr[t, k] = after // 3
+    return nbr
 
 
 def _locked(

@@ -10,9 +10,10 @@ from hypothesis import strategies as st
 
 from engine import PipelineParams, SizingParams, SmoothingParams, mesh_then_smooth
 from engine.errors import InvalidBoundary
-from engine.mesh import Mesh, edge_table, validate_mesh
+from engine.mesh import Mesh, corner_order, edge_table, validate_mesh
 from engine.quality import corner_angles, shape_quality
-from engine.swap import regularise_valence, swap_diagonals
+from engine.relax import node_stars
+from engine.swap import _neighbours, regularise_valence, swap_diagonals
 
 from ..conftest import DATA
 from .random_meshes import meshes, random_mesh
@@ -206,3 +207,44 @@ def test_the_pipeline_never_ends_below_its_starting_worst(case: tuple[Rings, flo
     final = result.smoothed.mesh
     validate_mesh(final.points, final.triangles)
     assert result.smoothed.quality.quality.min() >= result.initial.quality.quality.min() - 1e-12
+    # The boundary the stages carried over (keeps_boundary, with_points) is the one found anew.
+    for snap in (result.initial, result.swapped, result.smoothed):
+        fresh = Mesh(snap.mesh.points, snap.mesh.triangles)
+        np.testing.assert_array_equal(snap.mesh.boundary_nodes, fresh.boundary_nodes)
+        np.testing.assert_array_equal(snap.mesh.boundary_edges, fresh.boundary_edges)
+
+
+def _sorted_neighbours(tri: np.ndarray) -> np.ndarray:
+    """The triangle across each side by sorting the sides (what _neighbours computed before)."""
+    _, _, edge_of = edge_table(tri)
+    flat = edge_of.ravel()
+    order = np.argsort(flat, kind="stable")
+    nbr = np.full(flat.size, -1, dtype=np.int64)
+    same = flat[order[1:]] == flat[order[:-1]]
+    nbr[order[:-1][same]] = order[1:][same] // 3
+    nbr[order[1:][same]] = order[:-1][same] // 3
+    return nbr.reshape(-1, 3)
+
+
+def _sorted_edge_table(tri: np.ndarray) -> tuple[np.ndarray, ...]:
+    """edge_table by sorting the sides' codes (what it computed before)."""
+    sides = np.stack([tri[:, [1, 2]], tri[:, [2, 0]], tri[:, [0, 1]]], axis=1).reshape(-1, 2)
+    n = int(tri.max()) + 1
+    codes = sides.min(axis=1) * n + sides.max(axis=1)
+    unique, inverse, count = np.unique(codes, return_inverse=True, return_counts=True)
+    return np.stack([unique // n, unique % n], axis=1), count, inverse.reshape(-1, 3)
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), nodes=st.integers(3, 40))
+def test_neighbours_and_stars_match_the_sorting_statements(seed: int, nodes: int) -> None:
+    # Random corner triples: non-manifold edges and repeated corners included.
+    rng = np.random.default_rng(seed)
+    tri = rng.integers(0, nodes, (int(rng.integers(1, 3 * nodes)), 3))
+    for got, want in zip(edge_table(tri), _sorted_edge_table(tri), strict=True):
+        np.testing.assert_array_equal(got, want)
+    np.testing.assert_array_equal(_neighbours(tri), _sorted_neighbours(tri))
+    start, tri_of = node_stars(tri, nodes + 2)
+    np.testing.assert_array_equal(corner_order(tri), np.argsort(tri.ravel(), kind="stable"))
+    np.testing.assert_array_equal(tri_of, np.argsort(tri.ravel(), kind="stable") // 3)
+    np.testing.assert_array_equal(np.diff(start), np.bincount(tri.ravel(), minlength=nodes + 2))
