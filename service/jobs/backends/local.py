@@ -8,7 +8,9 @@ The supervisor's state lives on the event loop. One watcher thread waits on ever
 and sentinel and hands what it reads to the loop (``call_soon_threadsafe``), in order per worker:
 reading there keeps a large result off the loop, and works the same under any event loop (an
 earlier ``loop.add_reader`` design stalled under uvloop, which uvicorn uses by default; the
-contract suite runs on both loops).
+contract suite runs on both loops). Writing goes the other way off the loop too: a task is pickled
+and written to its worker's pipe in a thread, since a payload larger than the pipe holds waits
+there until the worker reads it.
 
 Cancellation crosses the process boundary through one shared integer per worker: the supervisor
 writes the running task's token there and the worker's ``should_stop()`` compares it, which costs a

@@ -103,23 +103,36 @@ async def _ended(sink: Any, job_id: str) -> Outcome:
     return outcome
 
 
+@contextlib.asynccontextmanager
+async def large_hand_over(local: LocalBackend, seconds: float) -> AsyncIterator[int]:
+    """A large ``sleepy`` task ("big") handed to the backend's stopped worker; yields the
+    worker's pid once the event loop has run on after the hand-over began."""
+    (pid,) = local.worker_pids()
+    with stopped_worker(pid) as loop_ran:
+        local.submit(Task("big", "tests.service.tasks:sleepy", _large_sleep(seconds)))
+        await asyncio.sleep(0)  # the loop runs on while the worker reads nothing
+        loop_ran.set()
+        yield pid
+
+
+async def _next_succeeds(local: LocalBackend, sink: Any) -> None:
+    """A small task after the large one runs to success: the worker (or its successor) is free."""
+    local.submit(Task("next", "tests.service.tasks:echo", encode_inputs({"n": 1})))
+    assert (await _ended(sink, "next")).kind is OutcomeKind.succeeded
+
+
 async def test_a_large_hand_over_leaves_the_loop_free_and_a_dismissal_stops_it(
     backend: tuple[LocalBackend, Any],
 ) -> None:
     local, sink = backend
-    (pid,) = local.worker_pids()
-    with stopped_worker(pid) as loop_ran:
-        local.submit(Task("big", "tests.service.tasks:sleepy", _large_sleep(30)))
-        await asyncio.sleep(0)  # the loop runs on while the worker reads nothing
-        loop_ran.set()
+    async with large_hand_over(local, 30) as pid:
         assert local.stats().busy == 1  # the worker is taken: nothing else goes to it
         assert sink.starts == ["big"]
         local.cancel("big")  # dismissed during the hand-over
     outcome = await _ended(sink, "big")
     assert outcome.kind is OutcomeKind.cancelled
     assert local.worker_pids() == [pid]  # stopped, not killed
-    local.submit(Task("next", "tests.service.tasks:echo", encode_inputs({"n": 1})))
-    assert (await _ended(sink, "next")).kind is OutcomeKind.succeeded
+    await _next_succeeds(local, sink)
     assert sink.starts == ["big", "next"]
 
 
@@ -127,27 +140,19 @@ async def test_a_worker_dying_during_a_large_hand_over_crashes_the_task(
     backend: tuple[LocalBackend, Any],
 ) -> None:
     local, sink = backend
-    (pid,) = local.worker_pids()
-    with stopped_worker(pid) as loop_ran:
-        local.submit(Task("big", "tests.service.tasks:sleepy", _large_sleep(0)))
-        await asyncio.sleep(0)
-        loop_ran.set()
+    async with large_hand_over(local, 0) as pid:
         os.kill(pid, signal.SIGKILL)
     outcome = await _ended(sink, "big")
     assert outcome.kind is OutcomeKind.crashed
     assert "killed by SIGKILL" in outcome.reason
-    local.submit(Task("next", "tests.service.tasks:echo", encode_inputs({"n": 1})))
-    assert (await _ended(sink, "next")).kind is OutcomeKind.succeeded  # a new worker took it
+    await _next_succeeds(local, sink)  # a new worker took it
     assert local.worker_pids() != [pid]
 
 
 async def test_a_large_hand_over_runs_to_success(backend: tuple[LocalBackend, Any]) -> None:
     local, sink = backend
-    (pid,) = local.worker_pids()
-    with stopped_worker(pid) as loop_ran:
-        local.submit(Task("big", "tests.service.tasks:sleepy", _large_sleep(0)))
-        await asyncio.sleep(0)
-        loop_ran.set()
+    async with large_hand_over(local, 0):
+        pass
     outcome = await _ended(sink, "big")
     assert outcome.kind is OutcomeKind.succeeded, outcome.reason
     assert sink.starts == ["big"]
