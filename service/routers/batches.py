@@ -200,7 +200,9 @@ class BatchRoute(JsonBodyRoute):
     """The batch route: a large body is admitted whole in the body pool (:func:`admit_batch`)."""
 
     def pool_step(self, request: Request) -> Then | None:
-        manager: JobManager = request.app.state.manager
+        manager: JobManager | None = getattr(request.app.state, "manager", None)
+        if manager is None:  # not running: the handler's dependency answers 503
+            return None
         return partial(admit_batch, manager.processes, request.app.state.settings)
 
 
