@@ -5,12 +5,15 @@ second client asks ``/health`` back to back: refused by validation, refused by a
 inverted triangle: read and checked after validation, in the body pool since issue 13's missed
 item), and accepted (its inputs encoded in the pool, written to the store in a thread and handed
 to the worker as those bytes: before, the API process unpickled them, encoded them on the event
-loop and pickled them again for the worker). Prints, for the body read in a thread
+loop and pickled them again for the worker); then a ``/batches`` body of about the same size
+(``--members`` quality requests) refused by one item's admission, and accepted (admitted whole in
+the pool since issue 13's leftovers; before, a batch went the thread path whatever its size, its
+rows encoded on the event loop). Prints, for the body read in a thread
 (``EVOMESH_BODY_WORKERS=0``, the old way) and in the body process pool, the longest gap
 between two ``/health`` answers while the POST was in flight and how many answers came. Traffic
 only to 127.0.0.1. Prints, does not assert.
 
-    python benchmarks/body_gap_bench.py [--side 600] [--repeat 2]
+    python benchmarks/body_gap_bench.py [--side 600] [--repeat 2] [--members 20]
 """
 
 from __future__ import annotations
@@ -50,8 +53,31 @@ def grid_body(side: int, refused: bool = False, inverted: bool = False) -> bytes
     return orjson.dumps({"inputs": {"mesh": mesh}})
 
 
-def measure(server: Server, body: bytes) -> dict[str, Any]:
-    """The longest gap between ``/health`` answers while ``body`` is posted, and their count."""
+def batch_body(side: int, members: int, inverted: bool = False) -> bytes:
+    """A ``/batches`` request of ``members`` quality requests of about the same total size as
+    one ``side`` x ``side`` grid (``inverted``: the last member's last triangle turned over, so
+    admission refuses the whole batch with 422)."""
+    each = max(3, round(side / members**0.5))
+    requests = [{"inputs": {"mesh": grid_mesh(each)}} for _ in range(members)]
+    if inverted:
+        last = requests[-1]["inputs"]["mesh"]["triangles"][-1]
+        last[1], last[2] = last[2], last[1]
+    return orjson.dumps({"process": "quality", "requests": requests})
+
+
+def settle(response: httpx.Response) -> None:
+    """Wait until an accepted job (or batch) has ended, so that its run does not load the next
+    measurement."""
+    if response.status_code != 201:
+        return
+    with httpx.Client(timeout=60) as c:
+        while c.get(response.headers["Location"]).json()["status"] in ("accepted", "running"):
+            time.sleep(0.2)
+
+
+def measure(server: Server, path: str, body: bytes) -> dict[str, Any]:
+    """The longest gap between ``/health`` answers while ``body`` is posted to ``path``, and
+    their count."""
     answers: list[float] = []
     stop = threading.Event()
 
@@ -67,13 +93,14 @@ def measure(server: Server, body: bytes) -> dict[str, Any]:
     start = time.perf_counter()
     with httpx.Client(base_url=server.url, timeout=120) as c:
         r = c.post(
-            "/processes/quality/execution",
+            path,
             content=body,
             headers={"Content-Type": "application/json"},
         )
     end = time.perf_counter()
     stop.set()
     thread.join()
+    settle(r)
     during = [t for t in answers if start <= t <= end]
     marks = [start, *during, end]
     gap = max(b - a for a, b in itertools.pairwise(marks))
@@ -84,24 +111,29 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--side", type=int, default=600)
     parser.add_argument("--repeat", type=int, default=2)
+    parser.add_argument("--members", type=int, default=20, help="requests of the batch bodies")
     args = parser.parse_args()
+    one, batches = "/processes/quality/execution", "/batches"
     bodies = {
-        "refused (422)": grid_body(args.side, True),
-        "admission 422": grid_body(args.side, inverted=True),
-        "accepted (201)": grid_body(args.side),
+        "refused (422)": (one, grid_body(args.side, True)),
+        "admission 422": (one, grid_body(args.side, inverted=True)),
+        "accepted (201)": (one, grid_body(args.side)),
+        "batch admission 422": (batches, batch_body(args.side, args.members, inverted=True)),
+        "batch accepted (201)": (batches, batch_body(args.side, args.members)),
     }
-    print(f"body: {len(bodies['accepted (201)']) / 1e6:.1f} MB")
+    for kind, (_, body) in bodies.items():
+        print(f"{kind}: {len(body) / 1e6:.1f} MB")
     rows: list[dict[str, Any]] = []
     for label, workers in (("thread (before)", "0"), ("process pool (after)", "2")):
         with tempfile.TemporaryDirectory() as tmp:
             server = Server(Path(tmp), workers=1, EVOMESH_BODY_WORKERS=workers)
             try:
                 time.sleep(3)  # the pool's processes have imported the service
-                for kind, body in bodies.items():
+                for kind, (path, body) in bodies.items():
                     for _ in range(args.repeat):
-                        m = measure(server, body)
+                        m = measure(server, path, body)
                         print(
-                            f"{label:21s} {kind:15s} POST {m['post_s']:5.2f} s  longest /health"
+                            f"{label:21s} {kind:20s} POST {m['post_s']:5.2f} s  longest /health"
                             f" gap {m['gap_s']:.3f} s  answers during POST {m['answers']}"
                         )
                         row = {"body reading": label, "request": kind}

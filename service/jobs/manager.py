@@ -21,7 +21,7 @@ import logging
 import time
 import uuid
 from collections import Counter, deque
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 import orjson
@@ -253,13 +253,8 @@ class JobManager:
             request_hash=request_hash,
             owner=owner,
         )
-        self._creating[owner] += 1
-        try:
+        with self._writing(owner, 1):
             record, created = await asyncio.to_thread(self.store.create, job)
-        finally:
-            self._creating[owner] -= 1
-            if not self._creating[owner]:
-                del self._creating[owner]
         if created:
             self.metrics.submitted.labels(process.id).inc()
             log.info("job accepted", extra={"job_id": record.id, "processID": process.id})
@@ -267,23 +262,40 @@ class JobManager:
                 self._dispatch(record.id, process.id, 1, prepared.inputs, owner)
         return record, created
 
-    def submit_batch(
+    async def submit_batch(
         self, process: Process, items: Sequence[Prepared], owner: str = ""
     ) -> BatchRecord:
         """Create the jobs of a batch in one transaction, then queue them: all of them, or none
-        (:class:`QueueFull`)."""
+        (:class:`QueueFull`). Written in a thread, as :meth:`submit` writes a job; the items'
+        inputs are best their stored form already (bytes), handed to the workers as they are."""
         self.admit(process.id, len(items), owner)
         batch_id = str(uuid.uuid4())
         jobs = [
             NewJob(str(uuid.uuid4()), process.id, p.inputs, p.seed, batch_id=batch_id, owner=owner)
             for p in items
         ]
-        batch = self.store.create_batch(batch_id, process.id, jobs, owner)
+        with self._writing(owner, len(jobs)):
+            batch = await asyncio.to_thread(
+                self.store.create_batch, batch_id, process.id, jobs, owner
+            )
         self.metrics.submitted.labels(process.id).inc(len(jobs))
         log.info("batch accepted", extra={"batch_id": batch_id, "jobs": len(jobs)})
         for job in jobs:
-            self._dispatch(job.id, process.id, 1, job.inputs, owner)
+            if not self._closing:  # else left accepted: the next start's recovery runs it
+                self._dispatch(job.id, process.id, 1, job.inputs, owner)
         return batch
+
+    @contextlib.contextmanager
+    def _writing(self, owner: str, count: int) -> Iterator[None]:
+        """``count`` admitted jobs of ``owner`` whose rows are being written: they count as
+        waiting meanwhile (:meth:`admit`)."""
+        self._creating[owner] += count
+        try:
+            yield
+        finally:
+            self._creating[owner] -= count
+            if not self._creating[owner]:
+                del self._creating[owner]
 
     def dismiss(self, job_id: str) -> JobRecord | None:
         """Dismiss a job: a queued one never runs, a running one is stopped."""
@@ -310,7 +322,8 @@ class JobManager:
             self._write("fail", self.store.fail, job_id, reason, FailureKind.internal)
             return False
         try:
-            payload = inputs if inputs is not None else self.store.inputs(job_id)
+            # the stored bytes as they are: only the worker decodes them
+            payload = inputs if inputs is not None else self.store.stored_inputs(job_id)
         except StoreUnavailable:
             raise
         except Exception as exc:

@@ -27,6 +27,7 @@ from .store import (
     StoreError,
     StoreUnavailable,
     read_inputs,
+    stored_form,
 )
 from .task import compact_json, encode_inputs
 
@@ -156,6 +157,10 @@ class MemoryJobStore:
         if row is None:
             return None
         return read_inputs(job_id, row.inputs)
+
+    def stored_inputs(self, job_id: str) -> bytes | None:
+        row = self._open().jobs.get(job_id)
+        return None if row is None else stored_form(job_id, row.inputs)
 
     def search(
         self,

@@ -29,6 +29,7 @@ from .store import (
     StoreCorrupt,
     StoreUnavailable,
     read_inputs,
+    stored_form,
 )
 from .task import encode_inputs
 
@@ -313,6 +314,11 @@ class SqliteJobStore:
         if row is None:
             return None
         return read_inputs(job_id, row[0])
+
+    @_translated
+    def stored_inputs(self, job_id: str) -> bytes | None:
+        row = self._conn().execute("SELECT inputs FROM jobs WHERE id = ?", (job_id,)).fetchone()
+        return None if row is None else stored_form(job_id, row[0])
 
     @_translated
     def search(

@@ -3,6 +3,9 @@ defaults), created together and followed together."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from dataclasses import dataclass
+from functools import partial
 from typing import Any, Literal
 
 from fastapi import APIRouter, Depends, Request
@@ -13,9 +16,10 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 from ..deps import ManagerDep, OwnerDep, SettingsDep, require_api_key
 from ..jobs.manager import JobManager
 from ..jobs.store import BatchRecord
-from ..middleware import JsonBodyRoute
-from ..problems import Problem
+from ..middleware import JsonBodyRoute, Then, problem_fields
+from ..problems import Problem, problem_for
 from ..processes import Prepared, Process, Where, inputs_at
+from ..processes.base import prepare_stored
 from ..schemas import BatchInfo
 from ..settings import Settings
 from ..views import base_url, batch_info
@@ -93,7 +97,47 @@ def _items(body: BatchRequest) -> list[tuple[dict[str, Any], tuple[Any, ...], Wh
     return out
 
 
+def _check(body: BatchRequest, processes: Mapping[str, Process], settings: Settings) -> Process:
+    """The batch's process, once its form and size are within the limits (else a problem)."""
+    process = processes.get(body.process)
+    if process is None:
+        raise Problem(
+            404, f"there is no process {body.process!r}", kind="no-such-process", pointer="/process"
+        )
+    if body.features is not None and process.id != "mesh":
+        raise Problem(
+            422,
+            "a FeatureCollection batch runs the mesh process",
+            kind="invalid-input",
+            pointer="/process",
+        )
+    count = _count(body)
+    pointer = "/features" if body.features is not None else "/requests"
+    if count > settings.max_batch_items:
+        raise Problem(
+            422,
+            f"the batch has {count} items, over the limit of {settings.max_batch_items}",
+            kind="limit-exceeded",
+            pointer=pointer,
+        )
+    if count > settings.max_queued:
+        raise Problem(
+            422,
+            f"the batch has {count} items, more than the {settings.max_queued} jobs that may wait"
+            " to start (max_queued); split it",
+            kind="limit-exceeded",
+            pointer=pointer,
+        )
+    return process
+
+
+def _count(body: BatchRequest) -> int:
+    return len(body.features or body.requests or [])
+
+
 def _prepare_all(body: BatchRequest, process: Process, settings: Settings) -> list[Prepared]:
+    """Every item prepared, its inputs in their stored form (bytes): where this runs (a thread,
+    a body pool process) encodes them, never the event loop."""
     prepared = []
     for inputs, loc, where in _items(body):
         try:
@@ -106,20 +150,62 @@ def _prepare_all(body: BatchRequest, process: Process, settings: Settings) -> li
                     path = path[1:]  # the feature is the boundary
                 errors.append({"loc": ("body", *loc, *path), "msg": err["msg"]})
             raise RequestValidationError(errors) from None
-        prepared.append(process.prepare(model, settings, where))
+        prepared.append(prepare_stored(process.prepare, model, settings, where))
     return prepared
 
 
-@router.post(
-    "",
-    status_code=201,
-    summary="Create a batch of jobs (all or none)",
-    response_model=None,
-    responses={
-        201: {"model": BatchInfo, "headers": {"Location": {"schema": {"type": "string"}}}},
-        **QUEUE_FULL,
-    },
-)
+@dataclass(frozen=True)
+class BatchAdmission:
+    """A large batch's admission, made in a body pool process: the process id and every
+    item prepared (inputs encoded), or the problem that refuses the batch."""
+
+    process: str
+    prepared: tuple[Prepared, ...] = ()
+    problem: tuple[int, str, dict[str, Any]] | None = None
+
+    def result(self) -> list[Prepared]:
+        """The prepared items, or the problem raised (where preparing in place would raise it)."""
+        if self.problem is not None:
+            status, detail, fields = self.problem
+            raise Problem(status, detail, **fields)
+        return list(self.prepared)
+
+
+def admit_batch(
+    processes: Mapping[str, Process], settings: Settings, body: BatchRequest
+) -> tuple[BatchRequest, BatchAdmission]:
+    """Run in a body pool process after validation: the whole admission of a batch (its limits,
+    every item parsed, checked, estimated and encoded as stored), so the event loop only hands
+    bytes on. Returns the request without its items (the handler reads only its process and
+    count) and the :class:`BatchAdmission`."""
+    try:
+        process = _check(body, processes, settings)
+        prepared = _prepare_all(body, process, settings)
+    except Exception as exc:
+        problem = problem_for(exc)
+        if problem.status >= 500:
+            raise  # a bug: answered as one, as in place
+        admission = BatchAdmission(body.process, problem=problem_fields(problem))
+    else:
+        admission = BatchAdmission(process.id, tuple(prepared))
+    # The items stay here: pickling them back would cost what the pool saved the loop. (An
+    # empty list of requests, not none: the model's one-form check runs again on the loop.)
+    envelope = BatchRequest.model_construct(
+        type=None, features=None, requests=[], process=body.process, inputs={}
+    )
+    return envelope, admission
+
+
+class BatchRoute(JsonBodyRoute):
+    """The batch route: a large body is admitted whole in the body pool (:func:`admit_batch`)."""
+
+    def pool_step(self, request: Request) -> Then | None:
+        manager: JobManager | None = getattr(request.app.state, "manager", None)
+        if manager is None:  # not running: the handler's dependency answers 503
+            return None
+        return partial(admit_batch, manager.processes, request.app.state.settings)
+
+
 async def create_batch(
     body: BatchRequest,
     request: Request,
@@ -127,40 +213,34 @@ async def create_batch(
     settings: SettingsDep,
     owner: OwnerDep,
 ) -> JSONResponse:
-    process = manager.processes.get(body.process)
-    if process is None:
-        raise Problem(
-            404, f"there is no process {body.process!r}", kind="no-such-process", pointer="/process"
-        )
-    if body.features is not None and process.id != "mesh":
-        raise Problem(
-            422,
-            "a FeatureCollection batch runs the mesh process",
-            kind="invalid-input",
-            pointer="/process",
-        )
-    count = len(body.features or body.requests or [])
-    if count > settings.max_batch_items:
-        raise Problem(
-            422,
-            f"the batch has {count} items, over the limit of {settings.max_batch_items}",
-            kind="limit-exceeded",
-            pointer="/features" if body.features is not None else "/requests",
-        )
-    if count > settings.max_queued:
-        raise Problem(
-            422,
-            f"the batch has {count} items, more than the {settings.max_queued} jobs that may wait"
-            " to start (max_queued); split it",
-            kind="limit-exceeded",
-            pointer="/features" if body.features is not None else "/requests",
-        )
-    manager.admit(process.id, count, owner)  # refuse early, before the work of preparing every item
-    prepared = await off_loop(_prepare_all, body, process, settings)
-    batch = manager.submit_batch(process, prepared, owner)
+    admitted: BatchAdmission | None = getattr(request.state, "prepared", None)
+    if admitted is not None:  # a large body, admitted in the body pool
+        prepared = admitted.result()
+        process = manager.processes[admitted.process]
+    else:
+        process = _check(body, manager.processes, settings)
+        # refuse early, before the work of preparing every item
+        manager.admit(process.id, _count(body), owner)
+        prepared = await off_loop(_prepare_all, body, process, settings)
+    batch = await manager.submit_batch(process, prepared, owner)
     base = base_url(request)
     doc = batch_info(base, batch, manager.store.records(batch.job_ids))
     return JSONResponse(doc, status_code=201, headers={"Location": f"{base}/batches/{batch.id}"})
+
+
+router.add_api_route(
+    "",
+    create_batch,
+    methods=["POST"],
+    status_code=201,
+    summary="Create a batch of jobs (all or none)",
+    response_model=None,
+    responses={
+        201: {"model": BatchInfo, "headers": {"Location": {"schema": {"type": "string"}}}},
+        **QUEUE_FULL,
+    },
+    route_class_override=BatchRoute,
+)
 
 
 def _batch(manager: JobManager, batch_id: str, owner: str) -> BatchRecord:

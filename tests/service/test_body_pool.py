@@ -13,7 +13,9 @@ import httpx
 import orjson
 import pytest
 
+from service.jobs.store import JobStatus
 from service.jobs.task import Task
+from service.routers import batches as batches_router
 from service.routers import processes as processes_router
 
 from .conftest import ClientFactory, app_of, assert_problem, wait_for
@@ -198,16 +200,10 @@ async def test_a_large_body_is_admitted_in_the_pool_not_in_the_api_process(
 _LARGE = 256 * 1024
 
 
-async def test_a_large_accepted_body_is_neither_decoded_nor_encoded_in_the_api_process(
-    make_client: ClientFactory, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    """Admitted in the pool, a large request reaches the store and the worker as the bytes the
-    pool encoded: the API process runs no JSON or zlib codec on anything that large (the old
-    way: the store encoded the inputs on the event loop, the backend pickled them as a tree)."""
-    client = await make_client(body_workers=1, body_pool_bytes=0, backend="local")
-    body = orjson.dumps({"inputs": {"mesh": grid_mesh(150)}})
-    assert len(body) > 4 * _LARGE
-    large: list[tuple[str, int]] = []  # (codec, size) of each large call in this process
+def large_codec_calls(monkeypatch: pytest.MonkeyPatch) -> list[tuple[str, int]]:
+    """``(codec, size)`` of every JSON or zlib call of this process on more than ``_LARGE``
+    bytes from now on."""
+    large: list[tuple[str, int]] = []
 
     def counted(module: Any, name: str) -> None:
         real = getattr(module, name)
@@ -226,6 +222,11 @@ async def test_a_large_accepted_body_is_neither_decoded_nor_encoded_in_the_api_p
             counted(module, name)
     for name in ("compress", "decompress"):
         counted(zlib, name)
+    return large
+
+
+def payload_types(client: httpx.AsyncClient, monkeypatch: pytest.MonkeyPatch) -> list[type]:
+    """The type of the payload of every task the client's backend is handed from now on."""
     handed: list[type] = []
     backend = app_of(client).state.manager.backend
     submit = backend.submit
@@ -235,6 +236,20 @@ async def test_a_large_accepted_body_is_neither_decoded_nor_encoded_in_the_api_p
         submit(task)
 
     monkeypatch.setattr(backend, "submit", hand)
+    return handed
+
+
+async def test_a_large_accepted_body_is_neither_decoded_nor_encoded_in_the_api_process(
+    make_client: ClientFactory, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Admitted in the pool, a large request reaches the store and the worker as the bytes the
+    pool encoded: the API process runs no JSON or zlib codec on anything that large (the old
+    way: the store encoded the inputs on the event loop, the backend pickled them as a tree)."""
+    client = await make_client(body_workers=1, body_pool_bytes=0, backend="local")
+    body = orjson.dumps({"inputs": {"mesh": grid_mesh(150)}})
+    assert len(body) > 4 * _LARGE
+    large = large_codec_calls(monkeypatch)
+    handed = payload_types(client, monkeypatch)
     r = await client.post(
         "/processes/quality/execution", content=body, headers={"Content-Type": "application/json"}
     )
@@ -243,3 +258,86 @@ async def test_a_large_accepted_body_is_neither_decoded_nor_encoded_in_the_api_p
     assert job["status"] == "successful", job  # the worker decoded what it was handed
     assert handed == [bytes]
     assert large == []
+
+
+def _batch_body(members: int, side: int, **extra: Any) -> dict[str, Any]:
+    """A ``/batches`` request of ``members`` quality requests, each a side x side grid."""
+    requests = [{"inputs": {"mesh": grid_mesh(side)}} for _ in range(members)]
+    return {"process": "quality", "requests": requests, **extra}
+
+
+async def test_a_large_batch_is_admitted_in_the_pool_and_not_coded_in_the_api_process(
+    make_client: ClientFactory, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A large batch goes the way a large single request goes: admitted whole in the pool, each
+    item's inputs encoded there, written in a thread, handed to the workers as those bytes."""
+    client = await make_client(body_workers=1, body_pool_bytes=0, backend="local")
+
+    async def nowhere(*args: Any) -> Any:
+        raise AssertionError("prepared in the API process")
+
+    monkeypatch.setattr(batches_router, "off_loop", nowhere)
+    body = orjson.dumps(_batch_body(3, 100))
+    assert len(body) > 6 * _LARGE
+    large = large_codec_calls(monkeypatch)
+    handed = payload_types(client, monkeypatch)
+    r = await client.post("/batches", content=body, headers={"Content-Type": "application/json"})
+    assert r.status_code == 201, r.text
+    jobs = [await wait_for(client, job["jobID"]) for job in r.json()["jobs"]]
+    assert [job["status"] for job in jobs] == ["successful"] * 3  # the workers decoded them
+    assert handed == [bytes] * 3
+    assert large == []
+    result = (await client.get(f"/jobs/{jobs[2]['jobID']}/results")).json()
+    assert len(result["triangles"]) == 2 * 99 * 99
+
+
+def _batch_refusals() -> dict[str, bytes]:
+    """Large batches refused, one per kind of refusal: by the body's shape, by an item's
+    validation, by an item's admission, by the batch's limits."""
+    inverted = _batch_body(2, 60)
+    a, b, c = inverted["requests"][1]["inputs"]["mesh"]["triangles"][7]
+    inverted["requests"][1]["inputs"]["mesh"]["triangles"][7] = [a, c, b]
+    mistyped = _batch_body(2, 60)
+    mistyped["requests"][1]["inputs"]["mesh"]["triangles"][-1][2] = "7"
+    return {
+        "both forms": orjson.dumps(_batch_body(2, 60, features=[{"type": "Feature"}])),
+        "item invalid": orjson.dumps(mistyped),
+        "item inputs not an object": orjson.dumps(
+            {**_batch_body(2, 60), "requests": [{"inputs": [grid_mesh(60)]}]}
+        ),
+        "item refused by admission": orjson.dumps(inverted),
+        "no such process": orjson.dumps({**_batch_body(2, 60), "process": "nope"}),
+        "over the item limit": orjson.dumps(_batch_body(4, 60)),
+        "a collection not meshed": orjson.dumps(
+            {"type": "FeatureCollection", "features": [grid_mesh(60)], "process": "quality"}
+        ),
+    }
+
+
+async def test_the_pools_batch_admission_answers_as_the_thread_does(
+    make_client: ClientFactory, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    limits = {"max_batch_items": 3}
+    pooled = await make_client(body_workers=1, body_pool_bytes=0, **limits)
+    threaded = await make_client(body_workers=0, **limits)
+    real_off_loop = batches_router.off_loop
+
+    async def nowhere(*args: Any) -> Any:
+        raise AssertionError("prepared in the API process")
+
+    for name, body in _batch_refusals().items():
+        assert len(body) > 64 * 1024
+        answers = []
+        for client, off_loop in ((pooled, nowhere), (threaded, real_off_loop)):
+            monkeypatch.setattr(batches_router, "off_loop", off_loop)
+            answers.append(
+                await client.post(
+                    "/batches", content=body, headers={"Content-Type": "application/json"}
+                )
+            )
+        assert answers[0].status_code in (404, 422), (name, answers[0].text)
+        assert (answers[0].status_code, answers[0].json()) == (
+            answers[1].status_code,
+            answers[1].json(),
+        ), name
+    assert app_of(pooled).state.manager.store.counts()[JobStatus.accepted] == 0

@@ -15,10 +15,11 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from service.jobs import store as store_module
 from service.jobs.backends.local import LocalBackend
 from service.jobs.sqlite import SqliteJobStore
 from service.jobs.store import NewJob
-from service.jobs.task import OutcomeKind, Task
+from service.jobs.task import OutcomeKind, Task, encode_inputs
 from service.middleware import json_depth
 
 from .conftest import SQUARE, ClientFactory, app_of, assert_problem, submit, wait_for
@@ -236,6 +237,44 @@ async def test_a_job_whose_input_cannot_be_read_is_failed_at_restart(
     assert bad["status"] == "failed"
     assert "stored input" in bad["message"]
     assert (await wait_for(client, "fine"))["status"] == "successful"
+
+
+async def test_recovery_hands_the_stored_bytes_to_the_worker(
+    make_client: ClientFactory, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """At a restart the API process neither decodes nor encodes a stored input: the worker gets
+    the stored bytes, as on the first run. A row that is not a zlib stream is failed there
+    (StoreCorrupt), one broken further in by its worker; neither stops the start."""
+    data = tmp_path / "recovered"
+    store = SqliteJobStore(data / "jobs.sqlite3")
+    for job_id in ("fine", "truncated", "text"):
+        store.create(NewJob(job_id, "sleep", {"seconds": 0}))
+    conn = store._conn()
+    stored = encode_inputs({"seconds": 0})
+    conn.execute("UPDATE jobs SET inputs = ? WHERE id = 'truncated'", (stored[:-6],))
+    conn.execute("UPDATE jobs SET inputs = ? WHERE id = 'text'", ('{"seconds": 0}',))
+    store.close()
+
+    def no_decoding(data: bytes) -> Any:
+        raise AssertionError("stored inputs decoded in the API process")
+
+    monkeypatch.setattr(store_module, "decode_inputs", no_decoding)
+    handed: list[tuple[str, type]] = []
+    submit = LocalBackend.submit
+
+    def hand(self: LocalBackend, task: Task) -> None:
+        handed.append((task.job_id, type(task.payload)))
+        submit(self, task)
+
+    monkeypatch.setattr(LocalBackend, "submit", hand)
+    client = await make_client(data_dir=data, backend="local")
+    assert (await wait_for(client, "fine"))["status"] == "successful"
+    for job_id, why in (("truncated", "incomplete or truncated"), ("text", "not bytes")):
+        doc = await wait_for(client, job_id)
+        assert doc["status"] == "failed", doc
+        assert "stored input" in doc["message"], doc
+        assert why in doc["message"], doc
+    assert sorted(handed) == [("fine", bytes), ("truncated", bytes)]
 
 
 async def test_a_restart_after_poison_requests_is_clean(

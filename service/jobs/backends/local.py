@@ -8,7 +8,9 @@ The supervisor's state lives on the event loop. One watcher thread waits on ever
 and sentinel and hands what it reads to the loop (``call_soon_threadsafe``), in order per worker:
 reading there keeps a large result off the loop, and works the same under any event loop (an
 earlier ``loop.add_reader`` design stalled under uvloop, which uvicorn uses by default; the
-contract suite runs on both loops).
+contract suite runs on both loops). Writing goes the other way off the loop too: a task is pickled
+and written to its worker's pipe in a thread, since a payload larger than the pipe holds waits
+there until the worker reads it.
 
 Cancellation crosses the process boundary through one shared integer per worker: the supervisor
 writes the running task's token there and the worker's ``should_stop()`` compares it, which costs a
@@ -19,6 +21,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import functools
 import itertools
 import logging
 import multiprocessing
@@ -312,28 +315,37 @@ class LocalBackend(QueuedBackend):
                 self._hand_over(worker)
 
     def _hand_over(self, worker: _Worker) -> None:
-        """Give the next task that can be pickled to an idle worker. One that cannot (too deep,
-        unpicklable) ends as an error at once: it never holds the worker."""
-        while self._queue:
-            task = self._queue.popleft()
-            token = next(self._tokens)
-            try:
-                message = ForkingPickler.dumps((token, task))
-            except Exception as exc:  # RecursionError, PicklingError...
-                self._refuse(task, exc)
-                continue
-            worker.task, worker.token = task, token
-            worker.started, worker.stopping = time.perf_counter(), None
-            try:
-                worker.conn.send_bytes(message)
-            except (BrokenPipeError, OSError):
-                # The worker is dying; its sentinel fires next and reports the task as crashed.
-                return
-            loop = self._require_loop()
-            worker.timer = loop.call_later(task.timeout, self._stop, worker, OutcomeKind.timeout)
-            assert self._events is not None
-            self._events.started(task.job_id)
+        """Give the next task to an idle worker. It is pickled and written to the worker's pipe
+        in a thread (:func:`_send`): a large payload fills the pipe faster than the worker reads
+        it, and the write would hold the event loop until then. The task counts as started (its
+        clock running) from now, before anything the worker answers can arrive; a worker that
+        never reads it is stopped by that clock."""
+        task = self._queue.popleft()
+        token = next(self._tokens)
+        worker.task, worker.token = task, token
+        worker.started, worker.stopping = time.perf_counter(), None
+        loop = self._require_loop()
+        worker.timer = loop.call_later(task.timeout, self._stop, worker, OutcomeKind.timeout)
+        assert self._events is not None
+        self._events.started(task.job_id)
+        sending = loop.run_in_executor(None, _send, worker.conn, token, task)
+        sending.add_done_callback(functools.partial(self._sent, worker, task, token))
+
+    def _sent(
+        self, worker: _Worker, task: Task, token: int, sending: asyncio.Future[Exception | None]
+    ) -> None:
+        """The hand-over of ``task`` ended (on the loop): a task that could not be pickled ends
+        as an error and frees the worker. A worker that died meanwhile has reported the task
+        already (its sentinel: crashed), as a closing backend has."""
+        refused = sending.result()
+        if refused is None or self._closing or worker.task is not task or worker.token != token:
             return
+        if worker.timer is not None:
+            worker.timer.cancel()
+            worker.timer = None
+        worker.task = None
+        self._refuse(task, refused)  # RecursionError, PicklingError...: the task's fault
+        self._dispatch()
 
     def _stop(self, worker: _Worker, why: OutcomeKind) -> None:
         """Ask the worker's task to stop; kill the worker if it has not after the grace period."""
@@ -400,6 +412,19 @@ class LocalBackend(QueuedBackend):
         self._spawns.add(spawn)  # a reference, or the task may be collected mid-flight
         spawn.add_done_callback(self._spawns.discard)
         self._dispatch()
+
+
+def _send(conn: Connection, token: int, task: Task) -> Exception | None:
+    """Pickle ``(token, task)`` and write it to a worker's pipe (in a thread): the pickling
+    error of a task that cannot be handed over, else None. A pipe that breaks is a dying
+    worker, which its sentinel reports (the task: crashed)."""
+    try:
+        message = ForkingPickler.dumps((token, task))
+    except Exception as exc:  # RecursionError, PicklingError...
+        return exc
+    with contextlib.suppress(OSError, ValueError):  # broken or closed with the backend
+        conn.send_bytes(message)
+    return None
 
 
 def _death(code: int | None) -> str:

@@ -278,6 +278,13 @@ def test_inputs_given_encoded_are_kept_as_the_store_would_encode_them(store: Job
     assert _stored_inputs(store, "plain") == encode_inputs(inputs)
 
 
+def test_stored_inputs_are_the_stored_bytes_as_they_are(store: JobStore) -> None:
+    inputs = {"big": 10**30, "mesh": {"points": [[0.5, 1.25]] * 50}}
+    store.create(NewJob("j", "mesh", inputs))
+    assert store.stored_inputs("j") == _stored_inputs(store, "j") == encode_inputs(inputs)
+    assert store.stored_inputs("nope") is None
+
+
 def test_an_older_sqlite_file_gains_the_failure_kind(tmp_path: Path) -> None:
     path = tmp_path / "jobs.sqlite3"
     old = SqliteJobStore(path)
