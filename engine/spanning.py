@@ -43,8 +43,10 @@ _HALVINGS = 14
 #: Triangles with all three nodes on the boundary and a smaller angle (degrees) than this are
 #: offered a node on one of their boundary sides.
 EDGE_SPLIT_BELOW = 30.0
-#: A boundary side is split only when the cavity's smallest angle gains this much (relative).
+#: A boundary side is split only when the cavity's smallest angle gains this much (relative) or
+#: :data:`EDGE_GAIN_DEG` degrees, whichever is less.
 EDGE_GAIN = 0.05
+EDGE_GAIN_DEG = 0.5
 #: Evenly spaced trial positions along a boundary side before refining the best.
 _EDGE_SAMPLES = 32
 _THIRTY = math.radians(30.0)
@@ -183,10 +185,11 @@ def split_spanning(mesh: Mesh, rounds: int = ROUNDS, *, sides: bool = True) -> M
 
 
 def _split_sides_round(mesh: Mesh) -> Mesh | None:
-    """A node on a boundary side of each triangle that has all three nodes on the boundary and
-    an angle below :data:`EDGE_SPLIT_BELOW`, joined to the corners of a small cavity (as in
-    :func:`_cavities`), where that lifts the cavity's smallest angle by :data:`EDGE_GAIN`
-    without lowering its worst radius ratio; None when nothing was split.
+    """A node on a boundary side of a small cavity (as in :func:`_cavities`) around each
+    triangle that has all three nodes on the boundary and an angle below
+    :data:`EDGE_SPLIT_BELOW`, joined to the cavity's corners, where that lifts the cavity's
+    smallest angle by :data:`EDGE_GAIN` (or :data:`EDGE_GAIN_DEG`) without lowering its worst
+    radius ratio; None when nothing was split.
 
     Near a corner whose first boundary nodes sit at unequal distances on its two legs (input
     vertices closer than the size, a short segment beside a long one) the corner's triangle has
@@ -204,6 +207,7 @@ def _split_sides_round(mesh: Mesh) -> Mesh | None:
     if candidates.size == 0:
         return None
     nbr = _neighbours(tri)
+    boundary = set(map(tuple, mesh.boundary_edges.tolist()))
     used = np.zeros(len(tri), dtype=bool)
     new_points: list[FloatArray] = []
     fans: list[IntArray] = []
@@ -213,12 +217,12 @@ def _split_sides_round(mesh: Mesh) -> Mesh | None:
             if used[tris].any():
                 continue
             old = tri[tris]
-            least = float(min_angle(p, old).min()) * (1.0 + EDGE_GAIN)
+            least = float(min_angle(p, old).min())
+            least += min(least * EDGE_GAIN, EDGE_GAIN_DEG)
             floor = float(radius_ratio(p, old).min())
-            for j in range(3):
-                if nbr[t, (j + 2) % 3] >= 0:  # the side from corner j to j + 1 is interior
+            for a in range(len(ring)):
+                if (ring[a], ring[(a + 1) % len(ring)]) not in boundary:
                     continue
-                a = ring.index(int(tri[t, j]))
                 chain = ring[a + 1 :] + ring[: a + 1]  # from the side's end round to its start
                 at, worst, smallest = _place_on_side(p, np.asarray(chain, dtype=np.int64))
                 smallest = math.degrees(smallest)
