@@ -1,17 +1,21 @@
 """Sharp input corners: the smallest angle against the bound the input sets.
 
 Prints, never asserts. Regions: wedges (a triangle with one ``theta`` corner, sides 1) and
-five-spike stars with ``theta`` tips, theta from 3 to 40 degrees, and a generated country-like
-coastline (a random fractal ring). For each: the default pipeline (``engine.mesh_then_smooth``),
+five-spike stars with ``theta`` tips, theta from 3 to 40 degrees, a generated country-like
+coastline (a random fractal ring) and seeded random "wobbly" regions (``graded_bench.wobbly``:
+input vertices closer than the size, at unequal distances on the two sides of a corner, short
+segments beside long ones). For each: the default pipeline (``engine.mesh_then_smooth``),
 gmsh Frontal-Delaunay + ``Relocate2D`` (``smooth_bench.gmsh_mesh``, when gmsh is installed:
 ``make .venv/.bench-installed``) and Triangle ``pq30`` (when the ``triangle`` PyPI package is
 installed: ``pip install triangle``, a benchmark-only extra) at the same size. The bound is
 ``min(smallest input corner, 30)``; columns are the smallest angle and worst radius ratio (2r/R).
-Writes ``benchmarks/results/corners.json``. Run: ``python benchmarks/corners_bench.py``.
+Writes ``benchmarks/results/corners.json``. Run: ``python benchmarks/corners_bench.py
+[--random N]``.
 """
 
 from __future__ import annotations
 
+import argparse
 import time
 from collections.abc import Callable
 from typing import Any
@@ -67,15 +71,17 @@ def ring_corners(ring: np.ndarray) -> np.ndarray:
 
 
 def triangle_mesh(region: engine.Region, h: float) -> Mesh | None:
-    try:
-        import triangle
-    except ImportError:
-        return None
-    ring = region.parts[0].outer
-    n = len(ring)
-    seg = np.c_[np.arange(n), (np.arange(n) + 1) % n]
-    out = triangle.triangulate({"vertices": ring, "segments": seg}, f"pq30a{0.433 * h * h:.12f}")
-    return Mesh(np.asarray(out["vertices"]), np.asarray(out["triangles"], dtype=np.int64))
+    """Triangle ``pq30`` (holes too), imported here: graded_bench imports this module."""
+    from graded_bench import triangle_pq30
+
+    return triangle_pq30(region, h)
+
+
+def wobbly_cases(count: int) -> list[tuple[str, engine.Region, float]]:
+    """The seeded random regions of graded_bench at its sizes."""
+    from graded_bench import wobbly
+
+    return [(f"wobbly {seed}", *wobbly(seed)) for seed in range(count)]
 
 
 def ours(region: engine.Region, h: float) -> Mesh:
@@ -90,11 +96,15 @@ SYSTEMS: dict[str, Callable[[engine.Region, float], Mesh | None]] = {
 }
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--random", type=int, default=20, help="random wobbly regions")
+    args = parser.parse_args(argv)
     cases: list[tuple[str, engine.Region, float]] = []
     cases += [(f"wedge {t}", wedge(t), 0.1) for t in THETAS]
     cases += [(f"star {t}", star(t), 0.1) for t in THETAS]
     cases.append(("coastline", coastline(), 0.05))
+    cases += wobbly_cases(args.random)
     rows: list[dict[str, Any]] = []
     print(f"{'case':12s} {'bound':>6s} {'system':14s} {'ang min':>8s} {'rr min':>7s} "
           f"{'rr mean':>8s} {'tris':>7s} {'s':>6s}")  # fmt: skip
@@ -124,7 +134,8 @@ def main() -> None:
         rows,
         title="Sharp input corners: smallest angle against min(smallest input corner, 30)",
         notes="Wedges and 5-spike stars with theta-degree tips at size 0.1, a generated "
-        "coastline at 0.05; evomesh = default mesh_then_smooth; gmsh = Frontal-Delaunay + "
+        "coastline at 0.05, seeded wobbly regions of graded_bench (sizes 2-6 vertex spacings, "
+        "holes included); evomesh = default mesh_then_smooth; gmsh = Frontal-Delaunay + "
         "Relocate2D; triangle = Triangle pq30 with the same area bound.",
     )
 

@@ -157,14 +157,17 @@ def mesh_region(
     should_stop: StopFn | None = None,
     max_triangles: int = 5_000_000,
     progress: ProgressFn | None = None,
+    *,
+    split_sides: bool = True,
 ) -> tuple[Mesh, dict[str, float]]:
     """Mesh ``region`` (no swapping, no smoothing); returns the mesh and stage timings.
 
     The mesher is the advancing front followed by ``relax_sweeps`` sweeps of constrained
     relaxation, edge collapses where fronts left a node too many
     (:func:`engine.collapse.collapse_edges`), a node in each wedge-spanning triangle where
-    that helps (:func:`engine.spanning.split_spanning`) and relaxation again (0 gives the raw
-    front).
+    that helps (:func:`engine.spanning.split_spanning`; with ``split_sides`` it may also split
+    boundary segments, which a subdomain sharing them with a neighbour must not) and relaxation
+    again (0 gives the raw front).
     Raises :class:`LimitExceeded` when the estimated (or, while meshing, the actual) triangle
     count is over ``max_triangles``; every stage polls ``should_stop`` and reports ``progress``
     (stages ``sizing``, ``estimate``, ``discretize``, ``front``, ``relax``, ``collapse``).
@@ -195,7 +198,7 @@ def mesh_region(
     mesh = relax(front, relax_sweeps, should_stop=should_stop)
     if relax_sweeps > 0:  # 0 asks for the raw front
         progress("collapse", 0.0)
-        collapsed = split_spanning(collapse_edges(mesh, should_stop=should_stop))
+        collapsed = split_spanning(collapse_edges(mesh, should_stop=should_stop), sides=split_sides)
         progress("relax", 0.5)
         mesh = relax(collapsed, relax_sweeps, should_stop=should_stop)
     progress("relax", 1.0)

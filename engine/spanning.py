@@ -15,6 +15,7 @@ input corner's angle is split only where both halves stay above the bound min(co
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numba as nb
@@ -39,18 +40,30 @@ GAIN = 0.02
 ROUNDS = 3
 #: Compass-search halvings when placing the new node.
 _HALVINGS = 14
+#: Triangles with all three nodes on the boundary and a smaller angle (degrees) than this are
+#: offered a node on one of their boundary sides.
+EDGE_SPLIT_BELOW = 30.0
+#: A boundary side is split only when the cavity's smallest angle gains this much (relative) or
+#: :data:`EDGE_GAIN_DEG` degrees, whichever is less.
+EDGE_GAIN = 0.05
+EDGE_GAIN_DEG = 0.5
+#: Evenly spaced trial positions along a boundary side before refining the best.
+_EDGE_SAMPLES = 32
 _THIRTY = math.radians(30.0)
 #: How far below min(the cavity's smallest angle, 30 degrees) the fan's smallest may be placed.
 _ANGLE_SLACK = math.radians(3.0)
 
 
 @nb.njit(cache=True, inline="always")
-def _fan(p: FloatArray, ring: IntArray, x: float, y: float) -> tuple[float, float, float]:
+def _fan(
+    p: FloatArray, ring: IntArray, x: float, y: float, sides: int
+) -> tuple[float, float, float]:
     """Worst and mean radius ratio (negative when inverted) and the smallest angle (radians)
-    of the triangles joining (x, y) to each side of ``ring``."""
+    of the triangles joining (x, y) to the first ``sides`` sides of ``ring`` (all of them
+    for a closed ring, one fewer for a chain whose ends (x, y) lies between)."""
     worst, total, smallest = np.inf, 0.0, np.inf
     k = ring.shape[0]
-    for i in range(k):
+    for i in range(sides):
         ax, ay = p[ring[i], 0], p[ring[i], 1]
         bx, by = p[ring[(i + 1) % k], 0], p[ring[(i + 1) % k], 1]
         q = radius_ratio_xy(ax, ay, bx, by, x, y)
@@ -62,7 +75,7 @@ def _fan(p: FloatArray, ring: IntArray, x: float, y: float) -> tuple[float, floa
         lo, m1, m2 = (a, b, c) if a <= min(b, c) else ((b, a, c) if b <= c else (c, a, b))
         cos = (m1 * m1 + m2 * m2 - lo * lo) / max(2.0 * m1 * m2, 1e-300)
         smallest = min(smallest, math.acos(min(max(cos, -1.0), 1.0)))
-    return worst, total / k, smallest
+    return worst, total / sides, smallest
 
 
 @nb.njit(cache=True)
@@ -79,7 +92,7 @@ def _place(
     for i in range(k):
         j = ring[(i + 1) % k]
         step += math.hypot(p[j, 0] - p[ring[i], 0], p[j, 1] - p[ring[i], 1]) / (4.0 * k)
-    worst, mean, smallest = _fan(p, ring, x, y)
+    worst, mean, smallest = _fan(p, ring, x, y, k)
     for _ in range(_HALVINGS):
         moved = True
         while moved:
@@ -87,11 +100,38 @@ def _place(
             for d in range(8):
                 a = d * math.pi / 4.0
                 cx, cy = x + step * math.cos(a), y + step * math.sin(a)
-                w, m, a = _fan(p, ring, cx, cy)
+                w, m, a = _fan(p, ring, cx, cy, k)
                 if w > worst:
                     x, y, worst, mean, smallest, moved = cx, cy, w, m, a, True
         step *= 0.5
     return x, y, worst, mean, smallest
+
+
+@nb.njit(cache=True)
+def _place_on_side(
+    p: FloatArray, chain: IntArray
+) -> tuple[float, float, float]:  # pragma: no cover
+    """Where on the boundary side from ``chain``'s last node to its first a node joined to
+    each side of ``chain`` makes the fan's smallest angle largest: (the fraction along that
+    side, the fan's worst radius ratio and its smallest angle; -inf when no fan is valid)."""
+    k = chain.shape[0]
+    ax, ay = p[chain[k - 1], 0], p[chain[k - 1], 1]
+    dx, dy = p[chain[0], 0] - ax, p[chain[0], 1] - ay
+    at, worst, smallest = 0.5, -np.inf, -np.inf
+    for i in range(1, _EDGE_SAMPLES):
+        s = i / _EDGE_SAMPLES
+        w, _, a = _fan(p, chain, ax + s * dx, ay + s * dy, k - 1)
+        if w > 0.0 and a > smallest:
+            at, worst, smallest = s, w, a
+    step = 0.5 / _EDGE_SAMPLES
+    for _ in range(_HALVINGS):
+        for s in (at - step, at + step):
+            if 0.0 < s < 1.0:
+                w, _, a = _fan(p, chain, ax + s * dx, ay + s * dy, k - 1)
+                if w > 0.0 and a > smallest:
+                    at, worst, smallest = s, w, a
+        step *= 0.5
+    return at, worst, smallest
 
 
 def _cavities(tri: IntArray, nbr: IntArray, t: int) -> list[tuple[list[int], list[int]]]:
@@ -114,11 +154,13 @@ def _cavities(tri: IntArray, nbr: IntArray, t: int) -> list[tuple[list[int], lis
     return out
 
 
-def split_spanning(mesh: Mesh, rounds: int = ROUNDS) -> Mesh:
-    """``mesh`` with a new interior node in each wedge-spanning triangle where that helps.
+def split_spanning(mesh: Mesh, rounds: int = ROUNDS, *, sides: bool = True) -> Mesh:
+    """``mesh`` with a new node in each wedge-spanning triangle where that helps.
 
     Up to ``rounds`` passes: a cavity is taken by one triangle a pass, so a neighbour whose best
-    cavity overlapped it tries again around the new node.
+    cavity overlapped it tries again around the new node. Each pass first splits boundary
+    sides (:func:`_split_sides_round`, skipped when ``sides`` is false: a subdomain's sides
+    are shared with its neighbour), then adds interior nodes.
 
     A 30-degree wedge: the corner's triangle, a rung (radius ratio 0.641) and two more.
 
@@ -130,12 +172,76 @@ def split_spanning(mesh: Mesh, rounds: int = ROUNDS) -> Mesh:
     >>> split.n_points, round(float(radius_ratio(split.points, split.triangles).min()), 3)
     (7, 0.655)
     """
+    steps = (_split_sides_round, _split_round) if sides else (_split_round,)
     for _ in range(rounds):
-        split = _split_round(mesh)
-        if split is None:
+        changed = False
+        for step in steps:
+            split = step(mesh)
+            if split is not None:
+                mesh, changed = split, True
+        if not changed:
             break
-        mesh = split
     return mesh
+
+
+def _split_sides_round(mesh: Mesh) -> Mesh | None:
+    """A node on a boundary side of a small cavity (as in :func:`_cavities`) around each
+    triangle that has all three nodes on the boundary and an angle below
+    :data:`EDGE_SPLIT_BELOW`, joined to the cavity's corners, where that lifts the cavity's
+    smallest angle by :data:`EDGE_GAIN` (or :data:`EDGE_GAIN_DEG`) without lowering its worst
+    radius ratio; None when nothing was split.
+
+    Near a corner whose first boundary nodes sit at unequal distances on its two legs (input
+    vertices closer than the size, a short segment beside a long one) the corner's triangle has
+    a second angle below the corner's own: a node on the longer leg at the shorter leg's
+    distance makes it isosceles. The node stays on the input segment, so the mesh still covers
+    the region exactly.
+    """
+    if mesh.n_triangles == 0:
+        return None
+    tri, p = mesh.triangles, mesh.points
+    spanning = mesh.boundary_nodes[tri].all(axis=1)
+    angle = np.full(len(tri), np.inf)
+    angle[spanning] = min_angle(p, tri[spanning])
+    candidates = np.flatnonzero(angle < EDGE_SPLIT_BELOW)
+    if candidates.size == 0:
+        return None
+    nbr = _neighbours(tri)
+    boundary = set(map(tuple, mesh.boundary_edges.tolist()))
+    used = np.zeros(len(tri), dtype=bool)
+    new_points: list[FloatArray] = []
+    fans: list[IntArray] = []
+    for t in candidates[np.argsort(angle[candidates], kind="stable")].tolist():
+        best: tuple[float, FloatArray, list[int], list[int]] | None = None
+        for tris, ring in _cavities(tri, nbr, t):
+            if used[tris].any():
+                continue
+            old = tri[tris]
+            least = float(min_angle(p, old).min())
+            least += min(least * EDGE_GAIN, EDGE_GAIN_DEG)
+            floor = float(radius_ratio(p, old).min())
+            for a in range(len(ring)):
+                if (ring[a], ring[(a + 1) % len(ring)]) not in boundary:
+                    continue
+                chain = ring[a + 1 :] + ring[: a + 1]  # from the side's end round to its start
+                at, worst, smallest = _place_on_side(p, np.asarray(chain, dtype=np.int64))
+                smallest = math.degrees(smallest)
+                if smallest >= least and worst >= floor and (best is None or smallest > best[0]):
+                    xy = p[chain[-1]] + at * (p[chain[0]] - p[chain[-1]])
+                    best = (smallest, xy, tris, chain)
+        if best is None:
+            continue
+        _, xy, tris, chain = best
+        used[tris] = True
+        node = mesh.n_points + len(new_points)
+        new_points.append(xy)
+        fans.append(np.array([[a, b, node] for a, b in itertools.pairwise(chain)]))
+    if not fans:
+        return None
+    return Mesh(
+        np.concatenate([p, np.asarray(new_points)]),
+        np.concatenate([tri[~used], *fans]).astype(np.int64),
+    )
 
 
 def _split_round(mesh: Mesh) -> Mesh | None:

@@ -248,7 +248,9 @@ def mesh_subdomains(
         if stop():
             raise Cancelled("stopped while meshing the subdomains")
         progress("mesh", k / len(split))
-        got_mesh, took = mesh_region(Region((p,)), s, params.relax, stop, params.max_triangles)
+        got_mesh, took = mesh_region(
+            Region((p,)), s, params.relax, stop, params.max_triangles, split_sides=False
+        )
         meshes.append(got_mesh)
         for stage, seconds in took.items():
             timings[stage] += seconds

@@ -4,7 +4,8 @@ stay conforming is tested with every mesh_region in test_mesher_properties)."""
 from __future__ import annotations
 
 import numpy as np
-from hypothesis import given, settings
+import shapely
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from engine.mesh import Mesh
@@ -33,7 +34,7 @@ def test_a_ladder_is_split_without_losing_its_corner(
     theta: float, rungs: int, ratio: float
 ) -> None:
     ladder = _ladder(theta, rungs, ratio)
-    split = split_spanning(ladder)
+    split = split_spanning(ladder, sides=False)
     before = radius_ratio(ladder.points, ladder.triangles)
     after = radius_ratio(split.points, split.triangles)
     smallest = min(float(min_angle(ladder.points, ladder.triangles).min()), 30.0)
@@ -56,3 +57,41 @@ def test_the_worst_rung_of_a_30_degree_ladder_is_lifted() -> None:
     assert radius_ratio(ladder.points, ladder.triangles).min() < 0.65
     assert split.n_points > ladder.n_points
     assert radius_ratio(split.points, split.triangles).min() > 0.65
+
+
+def _uneven_corner(theta: float, far: float) -> tuple[Mesh, float]:
+    """A theta-degree corner O whose first nodes sit at distances 1 (A1) and ``far`` (B) on its
+    legs, closed by A2 on the first leg at 1.5 cos(theta): the quadrilateral O, B, A2, A1 cut
+    into the corner's triangle O, B, A1 and B, A2, A1; and its smallest corner (degrees)."""
+    u = np.array([np.cos(np.radians(theta)), np.sin(np.radians(theta))])
+    pts = np.array([[0.0, 0.0], [far, 0.0], 1.5 * np.cos(np.radians(theta)) * u, u])
+    corners = [theta, float(np.degrees(np.arctan2(pts[2, 1], far - pts[2, 0])))]
+    corners.append(180.0 - theta - corners[1])
+    return Mesh(pts, np.array([[0, 1, 3], [1, 2, 3]], dtype=np.int64)), min(corners)
+
+
+@settings(max_examples=40, deadline=None)
+@given(theta=st.floats(3.0, 30.0), stretch=st.floats(1.2, 1.6))
+def test_an_uneven_corner_gets_a_node_on_its_boundary(theta: float, stretch: float) -> None:
+    # Past 2 cos(theta) the far node's angle in the corner's triangle is below theta.
+    corner, smallest = _uneven_corner(theta, stretch * 2.0 * np.cos(np.radians(theta)))
+    split = split_spanning(corner)
+    before = min_angle(corner.points, corner.triangles).min()
+    after = min_angle(split.points, split.triangles).min()
+    assert np.all(split.areas > 0)
+    assert np.isclose(split.areas.sum(), corner.areas.sum())
+    # The corner's triangle has a second angle below theta (the far node's); a node on a
+    # boundary side lifts the smallest angle to the corners' bound or by 5% (one node cannot
+    # always reach the bound), and every new node lies on the old boundary.
+    assume(before < min(smallest, 30.0) - 0.5)
+    assert after >= min(before * 1.05, min(smallest, 30.0) - 0.5)
+    assert (
+        radius_ratio(split.points, split.triangles).min()
+        >= radius_ratio(corner.points, corner.triangles).min()
+    )
+    added = np.arange(corner.n_points, split.n_points)
+    assert split.boundary_nodes[added].any()
+    new = shapely.points(split.points[added[split.boundary_nodes[added]]])
+    outline = shapely.Polygon(corner.points).boundary
+    assert float(np.max(shapely.distance(new, outline))) < 1e-12
+    assert np.array_equal(split.points[: corner.n_points], corner.points)
