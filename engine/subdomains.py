@@ -4,12 +4,13 @@ with its own size, each triangle knowing its polygon.
 1. Every polygon is validated alone; overlapping polygons are an :class:`InvalidBoundary` at a
    point of the overlap.
 2. Rings are noded: a vertex of one polygon lying on another's edge becomes a vertex of both.
-3. Each shared segment is split once, in one direction, to the smaller of its two polygons'
-   size fields (``ceil`` of the integral of ``ds / h``, so the mesher adds no point to a piece),
-   and the split points are inserted into both rings.
+3. Each shared segment is split once, to the smaller of its two polygons' size fields
+   (``ceil`` of the integral of ``ds / h``).
 4. Each polygon is meshed alone (its size: its own ``h``; a neighbour's smaller ``h`` grades in
-   from their common boundary as a refinement), and the meshes are merged on their identical
-   shared nodes.
+   from their common boundary as a refinement) with exactly those split points on its shared
+   segments (its other segments discretised to its own field; no later stage of the mesher
+   adds or removes a boundary node), and the meshes are merged on their identical shared
+   nodes.
 5. Constraints (lines and points, :mod:`engine.constraints`) are put into the merged mesh,
    their lines noded where they cross an interface; no repair flip crosses an interface.
 6. Swapping (diagonals, then valence) never flips an interface or constraint edge and
@@ -24,8 +25,9 @@ points, corners and constraint vertices kept; constraint lines are not thinned.
 
 from __future__ import annotations
 
+import itertools
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -43,6 +45,7 @@ from .constraints import (
     plain_geometries,
     split_segment,
 )
+from .discretize import Discretized, discretize
 from .errors import Cancelled, InvalidBoundary, MeshingError
 from .mesh import Mesh, validate_mesh
 from .params import PipelineParams, SizingParams
@@ -117,34 +120,71 @@ def _key(a: FloatArray, b: FloatArray) -> tuple[float, float, float, float]:
 
 def _split_shared(
     parts: list[PolygonPart], fields: list[SizeField], tol: float
-) -> list[PolygonPart]:
-    """Parts with every shared segment split once, identically in both."""
+) -> dict[tuple[float, float, float, float], FloatArray]:
+    """The split points of every shared segment, split once to the smaller of its two
+    polygons' fields, by its ends in either direction."""
     boundaries = [p.to_shapely().boundary for p in parts]
     done: dict[tuple[float, float, float, float], FloatArray] = {}
-    out = []
     for i, part in enumerate(parts):
-        rings = []
         for ring in part.rings:
-            pieces = []
-            for k in range(len(ring)):
-                a, b = ring[k], ring[(k + 1) % len(ring)]
-                pieces.append(a[None])
+            for a, b in zip(ring, np.roll(ring, -1, axis=0), strict=True):
+                if _key(a, b) in done:  # the neighbour split it the other way
+                    continue
                 mid = shapely.Point((a + b) / 2)
                 other = [
                     j for j in range(len(parts)) if j != i and boundaries[j].distance(mid) < tol
                 ]
-                if not other:
-                    continue
-                j = other[0]
-                if _key(b, a) in done:  # the neighbour split it the other way
-                    pieces.append(done[_key(b, a)][::-1])
-                    continue
-                pts = split_segment(a, b, [fields[i], fields[j]])
-                done[_key(a, b)] = pts
-                pieces.append(pts)
+                if other:
+                    pts = split_segment(a, b, [fields[i], fields[other[0]]])
+                    done[_key(a, b)], done[_key(b, a)] = pts, pts[::-1]
+    return done
+
+
+def _with_shared(
+    ring: FloatArray, shared: Mapping[tuple[float, float, float, float], FloatArray]
+) -> FloatArray:
+    """``ring`` with the split points of its shared segments inserted."""
+    pieces = []
+    for a, b in zip(ring, np.roll(ring, -1, axis=0), strict=True):
+        pieces += [a[None], shared.get(_key(a, b), ring[:0])]
+    return np.concatenate(pieces)
+
+
+def _shared_nodes(
+    shared: Mapping[tuple[float, float, float, float], FloatArray],
+) -> Callable[[Region, SizeField, ProgressFn, StopFn], Discretized]:
+    """A :func:`engine.discretize.discretize` that gives every shared segment exactly its
+    split points (one split for both sides: nothing re-splits it to one side's field)."""
+
+    def nodes(region: Region, field: SizeField, progress: ProgressFn, stop: StopFn) -> Discretized:
+        own = discretize(region, field, progress, stop)
+        rings = []
+        for r, ring in enumerate(region.rings):
+            pts = own.points[own.ring_start[r] : own.ring_start[r + 1]]
+            # Every ring vertex is kept, in order: the points between two are that segment's.
+            at = np.append(np.flatnonzero(_rows_in(pts, ring)), len(pts))
+            pieces = []
+            for k, (a, b) in enumerate(zip(ring, np.roll(ring, -1, axis=0), strict=True)):
+                pieces += [a[None], shared.get(_key(a, b), pts[at[k] + 1 : at[k + 1]])]
             rings.append(np.concatenate(pieces))
-        out.append(PolygonPart(rings[0], tuple(rings[1:])))
-    return out
+        points = np.concatenate(rings)
+        start = np.cumsum([0] + [len(r) for r in rings])
+        idx = [np.arange(a, b) for a, b in itertools.pairwise(start)]
+        edges = [np.stack([i, np.roll(i, -1)], axis=1) for i in idx]
+        return Discretized(
+            points=points,
+            edges=np.concatenate(edges).astype(np.int64),
+            ring_of_edge=np.repeat(np.arange(len(rings)), np.diff(start)).astype(np.int64),
+            ring_start=start.astype(np.int64),
+            sizes=field(points),
+        )
+
+    return nodes
+
+
+def _rows_in(points: FloatArray, rows: FloatArray) -> BoolArray:
+    """Which of ``points`` are (exactly) one of ``rows``."""
+    return np.isin(points[:, 0] + 1j * points[:, 1], rows[:, 0] + 1j * rows[:, 1])
 
 
 def _sizing(
@@ -241,14 +281,21 @@ def mesh_subdomains(
             geoms = check_constraints(constraints, boundary.region)
     sizing = [_sizing(base, sizes, noded, i) for i in range(len(noded))]
     fields = [build_size_field(Region((p,)), s) for p, s in zip(noded, sizing, strict=True)]
-    split = _split_shared(noded, fields, tol)
+    shared = _split_shared(noded, fields, tol)
+    split = [
+        PolygonPart(_with_shared(p.outer, shared), tuple(_with_shared(h, shared) for h in p.holes))
+        for p in noded
+    ]
     timings = {"boundary": time.perf_counter() - started, "mesh": 0.0}
     meshes = []
-    for k, (p, s) in enumerate(zip(split, sizing, strict=True)):
+    nodes = _shared_nodes(shared)
+    for k, (p, s) in enumerate(zip(noded, sizing, strict=True)):
         if stop():
             raise Cancelled("stopped while meshing the subdomains")
-        progress("mesh", k / len(split))
-        got_mesh, took = mesh_region(Region((p,)), s, params.relax, stop, params.max_triangles)
+        progress("mesh", k / len(noded))
+        got_mesh, took = mesh_region(
+            Region((p,)), s, params.relax, stop, params.max_triangles, boundary=nodes
+        )
         meshes.append(got_mesh)
         for stage, seconds in took.items():
             timings[stage] += seconds
