@@ -18,9 +18,10 @@ with its own size, each triangle knowing its polygon.
    (:class:`~engine.constraints.PinnedMesh`), so the regions keep their polygons' shapes; the
    post-processing and the ``timings`` are :func:`engine.mesh_then_smooth`'s.
 
-With ``sizing.resample`` the noded rings are resampled together
-(:func:`engine.resample.resample_parts`) before step 3: each shared stretch once, branch
-points, corners and constraint vertices kept; constraint lines are not thinned.
+With ``sizing.resample`` the noded rings and the constraint lines are resampled together
+(:func:`engine.resample.resample_parts_constraints`) before step 3: each shared stretch once,
+branch points, corners and constraint vertices on rings kept; the lines keep their ends,
+corners, junctions and crossings (with each other and with the rings).
 """
 
 from __future__ import annotations
@@ -40,6 +41,7 @@ from .constraints import (
     Constrained,
     PinnedMesh,
     check_constraints,
+    check_inside,
     improve_held,
     insert_constraints,
     plain_geometries,
@@ -51,7 +53,7 @@ from .mesh import Mesh, validate_mesh
 from .params import PipelineParams, SizingParams
 from .pipeline import mesh_region
 from .refinement import Refinement
-from .resample import Resampled, resample_parts
+from .resample import Resampled, insert_points, resample_parts_constraints
 from .result import ProgressFn, Result, StopFn
 from .sizing import SizeField, build_size_field
 from .tags import interface_edges
@@ -93,25 +95,6 @@ def _check_overlaps(polys: list[shapely.Polygon], tol: float) -> None:
                     part=j,
                     location=(p.x, p.y),
                 )
-
-
-def _insert(ring: FloatArray, extra: FloatArray, tol: float) -> FloatArray:
-    """``ring`` with the points of ``extra`` that lie inside its segments inserted in order."""
-    a, b = ring, np.roll(ring, -1, axis=0)
-    segs = shapely.linestrings(np.stack([a, b], axis=1))
-    si, pi = shapely.STRtree(segs).query(shapely.points(extra), "dwithin", tol)
-    d = b[pi] - a[pi]
-    t = ((extra[si] - a[pi]) * d).sum(axis=1) / (d * d).sum(axis=1)
-    inner = (t > 1e-12) & (t < 1 - 1e-12)
-    si, pi, t = si[inner], pi[inner], t[inner]
-    out: list[FloatArray] = []
-    for k in range(len(ring)):
-        mine = pi == k
-        out.append(ring[k : k + 1])
-        if mine.any():
-            order = np.argsort(t[mine])
-            out.append(extra[si[mine][order]])
-    return np.concatenate(out)
 
 
 def _key(a: FloatArray, b: FloatArray) -> tuple[float, float, float, float]:
@@ -264,21 +247,19 @@ def mesh_subdomains(
     corners = np.unique(np.concatenate([r for p in own for r in p.rings]), axis=0)
     noded = [
         PolygonPart(
-            _insert(p.outer, corners, tol), tuple(_insert(h, corners, tol) for h in p.holes)
+            insert_points(p.outer, corners, tol, True),
+            tuple(insert_points(h, corners, tol, True) for h in p.holes),
         )
         for p in own
     ]
     sizes = list(sizes) + [None] * (len(parts) - len(sizes))
     geoms = check_constraints(constraints, Region(tuple(noded))) if constraints else []
-    boundary, base = None, replace(params.sizing, resample=False)
+    boundary, base, deviation = None, replace(params.sizing, resample=False), 0.0
     if params.sizing.resample:  # once for all, so that shared stretches stay shared
         sizing = [_sizing(params.sizing, sizes, noded, i) for i in range(len(noded))]
-        kept = [shapely.get_coordinates(g) for g in geoms]
-        fixed = np.concatenate([np.asarray(keep, dtype=np.float64).reshape(-1, 2), *kept])
-        boundary = resample_parts(noded, sizing, fixed)
+        boundary, geoms, deviation = resample_parts_constraints(noded, sizing, geoms, keep)
         noded = list(boundary.region.parts)
-        if constraints:
-            geoms = check_constraints(constraints, boundary.region)
+        check_inside(geoms, boundary.region)
     sizing = [_sizing(base, sizes, noded, i) for i in range(len(noded))]
     fields = [build_size_field(Region((p,)), s) for p, s in zip(noded, sizing, strict=True)]
     shared = _split_shared(noded, fields, tol)
@@ -339,6 +320,8 @@ def mesh_subdomains(
         result.parameters["constraints"] = plain_geometries(geoms)
     if boundary is not None:
         result.smoothed.summary["boundary"] = boundary.summary()
+        if geoms:
+            result.smoothed.summary["boundary"]["constraints_max_deviation"] = deviation
     return Subdomains(
         result=result,
         region=Region(tuple(split)),

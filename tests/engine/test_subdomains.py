@@ -402,3 +402,48 @@ def test_densely_digitised_interfaces_conform_without_resample(
     interfaces, _ = interface_edges(mesh.triangles, sub.triangle_region)
     length = np.linalg.norm(np.diff(mesh.points[interfaces], axis=1)[:, 0], axis=1).sum()
     assert np.isclose(length, sum(shapely.LineString(line).length for line in lines[1:-1]))
+
+
+def test_digitised_constraint_lines_are_thinned_with_resampled_subdomains() -> None:
+    """Two strips with a digitised interface and two digitised constraint lines crossing it
+    and each other, with ``resample``: the lines are thinned like the rings (their ends, the
+    crossing and the interface crossings kept), every input vertex stays within the
+    tolerance, and the mesh holds the thinned lines as chains of edges."""
+    rng = np.random.default_rng(5)
+    y = np.linspace(0.0, 1.0, 300)
+    cut = np.c_[1.0 + 0.01 * np.sin(40 * y), y]
+    left = ([[0.0, 0.0], *cut.tolist(), [0.0, 1.0]], [])
+    right = ([*cut.tolist(), [2.0, 1.0], [2.0, 0.0]], [])
+    t = np.linspace(0.0, 1.0, 400)[:, None]
+    fault = (1 - t) * [0.3, 0.2] + t * [1.7, 0.8]
+    dyke = (1 - t) * [0.4, 0.9] + t * [1.6, 0.1]
+    for path in (fault, dyke):
+        path[1:-1] += rng.uniform(-0.002, 0.002, (len(path) - 2, 2))
+    cs = [{"type": "LineString", "coordinates": p.tolist()} for p in (fault, dyke)]
+    params = PipelineParams(SizingParams(0.1, resample=True), smoothing=SmoothingParams("ga"))
+    sub = mesh_subdomains([left, right], params, constraints=cs)
+    mesh = sub.result.smoothed.mesh
+    assert sub.result.smoothed.summary["inverted"] == 0
+    report = sub.result.smoothed.summary["boundary"]
+    tolerance = 0.1 * 0.1
+    assert 0 < report["constraints_max_deviation"] <= tolerance
+    thinned = [shapely.geometry.shape(g) for g in sub.result.parameters["constraints"]]
+    assert all(len(g.coords) < 40 for g in thinned)  # from 400 vertices each
+    # Every input vertex is within the tolerance of the mesh's constraint edges.
+    held = sub.constraints
+    assert held is not None
+    chains = shapely.MultiLineString(list(mesh.points[held.edges]))
+    given_xy = np.concatenate([fault, dyke])
+    assert shapely.distance(chains, shapely.points(given_xy)).max() <= tolerance + 1e-12
+    # The mesh holds exactly the thinned lines: same length, every edge on its line.
+    _constraints_kept(sub, sub.result.parameters["constraints"])
+    for i, g in enumerate(thinned):
+        mid = mesh.points[held.edges[held.edge_constraint == i]].mean(axis=1)
+        assert shapely.distance(g, shapely.points(mid)).max() < 1e-9
+    # The lines' crossing with each other is kept where it was drawn.
+    crossing = shapely.get_coordinates(shapely.LineString(fault) & shapely.LineString(dyke))
+    assert np.hypot(*(mesh.points - crossing[0]).T).min() < 1e-9
+    # Each line meets the (resampled) interface at a node of both.
+    interfaces, _ = interface_edges(mesh.triangles, sub.triangle_region)
+    both = np.intersect1d(interfaces.ravel(), held.edges.ravel())
+    assert len(both) >= 2
