@@ -7,10 +7,10 @@ with its own size, each triangle knowing its polygon.
 3. Each shared segment is split once, to the smaller of its two polygons' size fields
    (``ceil`` of the integral of ``ds / h``).
 4. Each polygon is meshed alone (its size: its own ``h``; a neighbour's smaller ``h`` grades in
-   from their common boundary as a refinement) with exactly those split points on its shared
-   segments (its other segments discretised to its own field; no later stage of the mesher
-   adds or removes a boundary node), and the meshes are merged on their identical shared
-   nodes.
+   from their common boundary as a refinement), its ring holding those split points and no
+   piece between two of them split again (its other segments are discretised to its own
+   field; no later stage of the mesher adds or removes a boundary node), so both sides have
+   exactly the same nodes; the meshes are merged on them.
 5. Constraints (lines and points, :mod:`engine.constraints`) are put into the merged mesh,
    their lines noded where they cross an interface; no repair flip crosses an interface.
 6. Swapping (diagonals, then valence) never flips an interface or constraint edge and
@@ -133,11 +133,12 @@ def _with_shared(
     return np.concatenate(pieces)
 
 
-def _shared_nodes(
-    shared: Mapping[tuple[float, float, float, float], FloatArray],
+def _keep_whole(
+    whole: set[tuple[float, float, float, float]],
 ) -> Callable[[Region, SizeField, ProgressFn, StopFn], Discretized]:
-    """A :func:`engine.discretize.discretize` that gives every shared segment exactly its
-    split points (one split for both sides: nothing re-splits it to one side's field)."""
+    """A :func:`engine.discretize.discretize` that leaves the segments of ``whole`` (by their
+    ends, either way) unsplit: the pieces of shared segments, split once for both sides, that
+    a side's own field must not split again."""
 
     def nodes(region: Region, field: SizeField, progress: ProgressFn, stop: StopFn) -> Discretized:
         own = discretize(region, field, progress, stop)
@@ -146,10 +147,11 @@ def _shared_nodes(
             pts = own.points[own.ring_start[r] : own.ring_start[r + 1]]
             # Every ring vertex is kept, in order: the points between two are that segment's.
             at = np.append(np.flatnonzero(_rows_in(pts, ring)), len(pts))
-            pieces = []
-            for k, (a, b) in enumerate(zip(ring, np.roll(ring, -1, axis=0), strict=True)):
-                pieces += [a[None], shared.get(_key(a, b), pts[at[k] + 1 : at[k + 1]])]
-            rings.append(np.concatenate(pieces))
+            keep = [
+                np.arange(at[k], at[k] + 1 if _key(a, b) in whole else at[k + 1])
+                for k, (a, b) in enumerate(zip(ring, np.roll(ring, -1, axis=0), strict=True))
+            ]
+            rings.append(pts[np.concatenate(keep)])
         points = np.concatenate(rings)
         start = np.cumsum([0] + [len(r) for r in rings])
         idx = [np.arange(a, b) for a, b in itertools.pairwise(start)]
@@ -163,6 +165,18 @@ def _shared_nodes(
         )
 
     return nodes
+
+
+def _pieces(
+    shared: Mapping[tuple[float, float, float, float], FloatArray],
+) -> set[tuple[float, float, float, float]]:
+    """The pieces between consecutive split points of the shared segments, either way."""
+    return {
+        key
+        for (a0, a1, b0, b1), pts in shared.items()
+        for u, v in itertools.pairwise([(a0, a1), *map(tuple, pts.tolist()), (b0, b1)])
+        for key in (u + v, v + u)
+    }
 
 
 def _rows_in(points: FloatArray, rows: FloatArray) -> BoolArray:
@@ -269,8 +283,8 @@ def mesh_subdomains(
     ]
     timings = {"boundary": time.perf_counter() - started, "mesh": 0.0}
     meshes = []
-    nodes = _shared_nodes(shared)
-    for k, (p, s) in enumerate(zip(noded, sizing, strict=True)):
+    nodes = _keep_whole(_pieces(shared))
+    for k, (p, s) in enumerate(zip(split, sizing, strict=True)):
         if stop():
             raise Cancelled("stopped while meshing the subdomains")
         progress("mesh", k / len(noded))
