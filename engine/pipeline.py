@@ -172,8 +172,9 @@ def mesh_region(
     (stages ``sizing``, ``estimate``, ``discretize``, ``front``, ``relax``, ``collapse``).
     With ``sizing.resample`` the rings are resampled first (:mod:`engine.resample`), so the
     field and the estimate see the resampled boundary. ``boundary`` places the boundary nodes
-    (:func:`engine.discretize.discretize`; subdomains give each polygon its shared edges' nodes
-    that way): no later stage adds, removes or moves a boundary node.
+    (:func:`engine.discretize.discretize`; subdomains keep the pieces of their shared edges,
+    split once for both sides, whole that way): no later stage adds, removes or moves a
+    boundary node.
     """
     progress = progress or _no_progress
     should_stop = should_stop or _never
