@@ -47,6 +47,7 @@ __all__ = [
     "InvalidConstraint",
     "PinnedMesh",
     "check_constraints",
+    "check_inside",
     "improve_held",
     "insert_constraints",
     "mesh_with_constraints",
@@ -147,7 +148,9 @@ def _geometries(constraints: Sequence[Mapping[str, Any]]) -> list[shapely.Geomet
     return out
 
 
-def _check_inside(geoms: list[shapely.Geometry], region: Region) -> None:
+def check_inside(geoms: Sequence[shapely.Geometry], region: Region) -> None:
+    """Raise :class:`InvalidConstraint` naming the first of ``geoms`` that leaves ``region``
+    (the union of its parts: subdomains touch)."""
     shape = shapely.union_all([p.to_shapely() for p in region.parts])  # subdomains touch
     for i, g in enumerate(geoms):
         if not shape.covers(g):
@@ -177,7 +180,7 @@ def check_constraints(
     engine.constraints.InvalidConstraint: constraint 0 leaves the region near (2, 2)
     """
     geoms = _geometries(constraints)
-    _check_inside(geoms, region)
+    check_inside(geoms, region)
     return geoms
 
 
@@ -226,8 +229,10 @@ def _pieces(
             xy = xy[np.r_[True, np.any(xy[1:] != xy[:-1], axis=1)]]
             if len(xy) < 2:  # a rounding error's piece, gone once snapped
                 continue
-            mid = shapely.Point((xy[0] + xy[1]) / 2)
-            near = [g.distance(mid) for g in inputs]
+            # Every segment's midpoint, not one: a ring piece can start with a rounding
+            # error's spur along a line ending a hair from the ring, or pass a line's end.
+            mid = shapely.points((xy[1:] + xy[:-1]) / 2)
+            near = [float(shapely.distance(g, mid).max()) for g in inputs]
             if min(near) > tol:  # a piece of ring only
                 continue
             i = lines[int(np.argmin(near))][0]
@@ -507,7 +512,7 @@ def mesh_with_constraints(
     if sizing.resample:
         boundary, geoms, deviation = resample_constraints(region, sizing, geoms, keep)
         region, sizing = boundary.region, replace(sizing, resample=False)
-        _check_inside(geoms, region)
+        check_inside(geoms, region)
     field = build_size_field(region, sizing)
     resampled = time.perf_counter() - started
     mesh, timings = mesh_region(

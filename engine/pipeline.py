@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 
 from .boundary import Region
 from .collapse import collapse_edges
-from .discretize import discretize
+from .discretize import Discretized, discretize
 from .errors import Cancelled, LimitExceeded
 from .estimate import estimate_triangles
 from .fitness import node_fitness
@@ -23,7 +23,7 @@ from .quality import shape_quality, summarize, triangle_quality
 from .relax import relax, relax_mean
 from .resample import resample_region
 from .result import ProgressFn, Result, Snapshot, StopFn
-from .sizing import build_size_field
+from .sizing import SizeField, build_size_field
 from .smoothing import SMOOTHERS, smooth_points
 from .spanning import split_spanning
 from .swap import regularise_valence, swap_diagonals
@@ -159,6 +159,7 @@ def mesh_region(
     progress: ProgressFn | None = None,
     *,
     split_sides: bool = True,
+    boundary: Callable[[Region, SizeField, ProgressFn, StopFn], Discretized] = discretize,
 ) -> tuple[Mesh, dict[str, float]]:
     """Mesh ``region`` (no swapping, no smoothing); returns the mesh and stage timings.
 
@@ -172,7 +173,10 @@ def mesh_region(
     count is over ``max_triangles``; every stage polls ``should_stop`` and reports ``progress``
     (stages ``sizing``, ``estimate``, ``discretize``, ``front``, ``relax``, ``collapse``).
     With ``sizing.resample`` the rings are resampled first (:mod:`engine.resample`), so the
-    field and the estimate see the resampled boundary.
+    field and the estimate see the resampled boundary. ``boundary`` places the boundary nodes
+    (:func:`engine.discretize.discretize`; subdomains keep the pieces of their shared edges,
+    split once for both sides, whole that way): no later stage removes or moves a boundary
+    node, and only the side splits (``split_sides``) add one, on a boundary segment.
     """
     progress = progress or _no_progress
     should_stop = should_stop or _never
@@ -190,10 +194,10 @@ def mesh_region(
             limit=max_triangles,
             estimate=estimate,
         )
-    boundary = discretize(region, field, progress, should_stop)
+    nodes = boundary(region, field, progress, should_stop)
     t1 = time.perf_counter()
     progress("front", 0.0)
-    front = advance_front(boundary, field, should_stop, max_triangles=max_triangles)
+    front = advance_front(nodes, field, should_stop, max_triangles=max_triangles)
     progress("relax", 0.0)
     mesh = relax(front, relax_sweeps, should_stop=should_stop)
     if relax_sweeps > 0:  # 0 asks for the raw front

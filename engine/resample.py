@@ -49,9 +49,11 @@ __all__ = [
     "DEFAULT_TOLERANCE",
     "Resampled",
     "corners",
+    "insert_points",
     "resample_constraints",
     "resample_lines",
     "resample_parts",
+    "resample_parts_constraints",
     "resample_region",
     "resample_size",
     "resample_tolerance",
@@ -288,30 +290,110 @@ def resample_constraints(
 ) -> tuple[Resampled, list[shapely.Geometry], float]:
     """Resample ``region`` and the constraint lines of ``geoms`` together: every constraint
     vertex and ``keep`` point that is a ring vertex stays one, vertices shared by constraint
-    lines stay, a constraint vertex that lay on a ring (between its vertices) is put on the
-    resampled ring. Returns the resampled region, the constraints and the largest distance of
-    a constraint line's vertex from its resampled line."""
-    mine = [shapely.get_coordinates(g) for g in geoms]
-    vertices = np.concatenate([np.empty((0, 2)), *mine])
+    lines and the points where lines cross each other or a ring stay, a constraint vertex that
+    lay on a ring (between its vertices) is put on the resampled ring. Returns the resampled
+    region, the constraints and the largest distance of a constraint line's vertex from its
+    resampled line."""
     given = np.asarray(keep, dtype=np.float64).reshape(-1, 2)
-    resampled = resample_region(region, sizing, keep=np.concatenate([vertices, given]))
-    old = shapely.union_all([shapely.LinearRing(r) for r in region.rings])
-    new = shapely.union_all([shapely.LinearRing(r) for r in resampled.region.rings])
-    x0, y0, x1, y1 = region.bounds
+    resampled = resample_region(region, sizing, keep=np.concatenate([_vertices(geoms), given]))
+    tolerance = resampled.tolerance or resample_tolerance(sizing)
+    thinned, deviation = _thin_constraints(
+        region, resampled.region, geoms, given, resample_size(sizing), tolerance
+    )
+    return resampled, thinned, deviation
+
+
+def resample_parts_constraints(
+    parts: Sequence[PolygonPart],
+    sizings: Sequence[SizingParams],
+    geoms: Sequence[shapely.Geometry],
+    keep: ArrayLike = (),
+) -> tuple[Resampled, list[shapely.Geometry], float]:
+    """Subdomains (:func:`resample_parts`) and the constraint lines of ``geoms`` resampled
+    together as :func:`resample_constraints` does for one region: the lines' ends, corners,
+    junctions, crossings with each other and with every ring (interfaces included) stay, and
+    the lines are thinned to the smallest of the polygons' sizes and tolerances."""
+    given = np.asarray(keep, dtype=np.float64).reshape(-1, 2)
+    resampled = resample_parts(parts, sizings, keep=np.concatenate([_vertices(geoms), given]))
+    tolerance = resampled.tolerance or min(resample_tolerance(s) for s in sizings)
+    window = min(resample_size(s) for s in sizings)
+    thinned, deviation = _thin_constraints(
+        Region(tuple(parts)), resampled.region, geoms, given, window, tolerance
+    )
+    return resampled, thinned, deviation
+
+
+def _vertices(geoms: Sequence[shapely.Geometry]) -> FloatArray:
+    return np.concatenate([np.empty((0, 2)), *(shapely.get_coordinates(g) for g in geoms)])
+
+
+def insert_points(xy: FloatArray, extra: FloatArray, tol: float, closed: bool) -> FloatArray:
+    """``xy`` (a ring when ``closed``, else an open line) with the points of ``extra`` that
+    lie (within ``tol``) inside its segments inserted in order; each on its first segment.
+
+    >>> insert_points(np.array([[0.0, 0], [2, 0], [2, 1]]), np.array([[1.0, 0]]), 1e-9, False)
+    array([[0., 0.],
+           [1., 0.],
+           [2., 0.],
+           [2., 1.]])
+    """
+    a = xy if closed else xy[:-1]
+    b = np.roll(xy, -1, axis=0) if closed else xy[1:]
+    segs = shapely.linestrings(np.stack([a, b], axis=1))
+    pi, si = shapely.STRtree(segs).query(shapely.points(extra), "dwithin", tol)
+    d = b[si] - a[si]
+    t = ((extra[pi] - a[si]) * d).sum(axis=1) / (d * d).sum(axis=1)
+    inner = (t > 1e-12) & (t < 1 - 1e-12)
+    pi, si, t = pi[inner], si[inner], t[inner]
+    first = np.unique(pi, return_index=True)[1]  # a point near two segments goes in once
+    pi, at = pi[first], si[first] + t[first]
+    order = np.argsort(np.r_[np.arange(len(xy), dtype=np.float64), at], kind="stable")
+    return np.concatenate([xy, extra[pi]])[order]
+
+
+def _crossings(lines: Sequence[FloatArray], rings: Sequence[FloatArray]) -> list[FloatArray]:
+    """For each line, the points where it meets another line or a ring (each point computed
+    once, so both lines at a crossing get the same one)."""
+    shapes = np.array([shapely.LineString(xy) for xy in lines])
+    linework = shapely.union_all([shapely.LinearRing(r) for r in rings])
+    out = [shapely.get_coordinates(shapely.intersection(g, linework)) for g in shapes]
+    left, right = shapely.STRtree(shapes).query(shapes, predicate="intersects")
+    for i, j in zip(left.tolist(), right.tolist(), strict=True):
+        if i < j:
+            xy = shapely.get_coordinates(shapely.intersection(shapes[i], shapes[j]))
+            out[i], out[j] = np.r_[out[i], xy], np.r_[out[j], xy]
+    return out
+
+
+def _thin_constraints(
+    before: Region,
+    after: Region,
+    geoms: Sequence[shapely.Geometry],
+    given: FloatArray,
+    window: float,
+    tolerance: float,
+) -> tuple[list[shapely.Geometry], float]:
+    """The constraints of ``geoms`` with their lines thinned (see :func:`resample_constraints`)
+    for the rings of ``before`` resampled to ``after``; and the lines' largest deviation."""
+    vertices = _vertices(geoms)
+    old = shapely.union_all([shapely.LinearRing(r) for r in before.rings])
+    new = shapely.union_all([shapely.LinearRing(r) for r in after.rings])
+    x0, y0, x1, y1 = before.bounds
     on = 1e-9 * max(x1 - x0, y1 - y0)
-    # Vertices of more than one line (junctions) and on a ring stay where they are.
     lines = [
         shapely.get_coordinates(part)
         for g in geoms
         if "Line" in g.geom_type
         for part in getattr(g, "geoms", [g])
     ]
+    # Vertices of more than one line (junctions), crossings and vertices on a ring stay.
     seen = np.concatenate([np.empty((0, 2)), *(np.unique(xy, axis=0) for xy in lines)])
     uniq, count = np.unique(seen, axis=0, return_counts=True)
     touching = vertices[shapely.distance(old, shapely.points(vertices)) < on]
-    joints = np.concatenate([uniq[count > 1], touching, given])
-    tolerance = resampled.tolerance or resample_tolerance(sizing)
-    thinned, deviation = resample_lines(lines, resample_size(sizing), tolerance, keep=joints)
+    crossing = _crossings(lines, before.rings) if lines else []
+    lines = [insert_points(xy, c, on, False) for xy, c in zip(lines, crossing, strict=True)]
+    joints = np.concatenate([uniq[count > 1], touching, given, *crossing])
+    thinned, deviation = resample_lines(lines, window, tolerance, keep=joints)
 
     def onto_rings(xy: FloatArray) -> FloatArray:
         pts = shapely.points(xy)
@@ -331,7 +413,7 @@ def resample_constraints(
             out.append(parts[0] if g.geom_type == "LineString" else shapely.MultiLineString(parts))
         else:
             out.append(shapely.transform(g, onto_rings))
-    return resampled, out, deviation
+    return out, deviation
 
 
 _Key = tuple[float, ...]

@@ -4,12 +4,13 @@ with its own size, each triangle knowing its polygon.
 1. Every polygon is validated alone; overlapping polygons are an :class:`InvalidBoundary` at a
    point of the overlap.
 2. Rings are noded: a vertex of one polygon lying on another's edge becomes a vertex of both.
-3. Each shared segment is split once, in one direction, to the smaller of its two polygons'
-   size fields (``ceil`` of the integral of ``ds / h``, so the mesher adds no point to a piece),
-   and the split points are inserted into both rings.
+3. Each shared segment is split once, to the smaller of its two polygons' size fields
+   (``ceil`` of the integral of ``ds / h``).
 4. Each polygon is meshed alone (its size: its own ``h``; a neighbour's smaller ``h`` grades in
-   from their common boundary as a refinement), and the meshes are merged on their identical
-   shared nodes.
+   from their common boundary as a refinement), its ring holding those split points and no
+   piece between two of them split again (its other segments are discretised to its own
+   field; no later stage of the mesher adds or removes a boundary node), so both sides have
+   exactly the same nodes; the meshes are merged on them.
 5. Constraints (lines and points, :mod:`engine.constraints`) are put into the merged mesh,
    their lines noded where they cross an interface; no repair flip crosses an interface.
 6. Swapping (diagonals, then valence) never flips an interface or constraint edge and
@@ -17,15 +18,17 @@ with its own size, each triangle knowing its polygon.
    (:class:`~engine.constraints.PinnedMesh`), so the regions keep their polygons' shapes; the
    post-processing and the ``timings`` are :func:`engine.mesh_then_smooth`'s.
 
-With ``sizing.resample`` the noded rings are resampled together
-(:func:`engine.resample.resample_parts`) before step 3: each shared stretch once, branch
-points, corners and constraint vertices kept; constraint lines are not thinned.
+With ``sizing.resample`` the noded rings and the constraint lines are resampled together
+(:func:`engine.resample.resample_parts_constraints`) before step 3: each shared stretch once,
+branch points, corners and constraint vertices on rings kept; the lines keep their ends,
+corners, junctions and crossings (with each other and with the rings).
 """
 
 from __future__ import annotations
 
+import itertools
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -38,17 +41,19 @@ from .constraints import (
     Constrained,
     PinnedMesh,
     check_constraints,
+    check_inside,
     improve_held,
     insert_constraints,
     plain_geometries,
     split_segment,
 )
+from .discretize import Discretized, discretize
 from .errors import Cancelled, InvalidBoundary, MeshingError
 from .mesh import Mesh, validate_mesh
 from .params import PipelineParams, SizingParams
 from .pipeline import mesh_region
 from .refinement import Refinement
-from .resample import Resampled, resample_parts
+from .resample import Resampled, insert_points, resample_parts_constraints
 from .result import ProgressFn, Result, StopFn
 from .sizing import SizeField, build_size_field
 from .tags import interface_edges
@@ -92,59 +97,91 @@ def _check_overlaps(polys: list[shapely.Polygon], tol: float) -> None:
                 )
 
 
-def _insert(ring: FloatArray, extra: FloatArray, tol: float) -> FloatArray:
-    """``ring`` with the points of ``extra`` that lie inside its segments inserted in order."""
-    a, b = ring, np.roll(ring, -1, axis=0)
-    segs = shapely.linestrings(np.stack([a, b], axis=1))
-    si, pi = shapely.STRtree(segs).query(shapely.points(extra), "dwithin", tol)
-    d = b[pi] - a[pi]
-    t = ((extra[si] - a[pi]) * d).sum(axis=1) / (d * d).sum(axis=1)
-    inner = (t > 1e-12) & (t < 1 - 1e-12)
-    si, pi, t = si[inner], pi[inner], t[inner]
-    out: list[FloatArray] = []
-    for k in range(len(ring)):
-        mine = pi == k
-        out.append(ring[k : k + 1])
-        if mine.any():
-            order = np.argsort(t[mine])
-            out.append(extra[si[mine][order]])
-    return np.concatenate(out)
-
-
 def _key(a: FloatArray, b: FloatArray) -> tuple[float, float, float, float]:
     return (float(a[0]), float(a[1]), float(b[0]), float(b[1]))
 
 
 def _split_shared(
     parts: list[PolygonPart], fields: list[SizeField], tol: float
-) -> list[PolygonPart]:
-    """Parts with every shared segment split once, identically in both."""
+) -> dict[tuple[float, float, float, float], FloatArray]:
+    """The split points of every shared segment, split once to the smaller of its two
+    polygons' fields, by its ends in either direction."""
     boundaries = [p.to_shapely().boundary for p in parts]
     done: dict[tuple[float, float, float, float], FloatArray] = {}
-    out = []
     for i, part in enumerate(parts):
-        rings = []
         for ring in part.rings:
-            pieces = []
-            for k in range(len(ring)):
-                a, b = ring[k], ring[(k + 1) % len(ring)]
-                pieces.append(a[None])
+            for a, b in zip(ring, np.roll(ring, -1, axis=0), strict=True):
+                if _key(a, b) in done:  # the neighbour split it the other way
+                    continue
                 mid = shapely.Point((a + b) / 2)
                 other = [
                     j for j in range(len(parts)) if j != i and boundaries[j].distance(mid) < tol
                 ]
-                if not other:
-                    continue
-                j = other[0]
-                if _key(b, a) in done:  # the neighbour split it the other way
-                    pieces.append(done[_key(b, a)][::-1])
-                    continue
-                pts = split_segment(a, b, [fields[i], fields[j]])
-                done[_key(a, b)] = pts
-                pieces.append(pts)
-            rings.append(np.concatenate(pieces))
-        out.append(PolygonPart(rings[0], tuple(rings[1:])))
-    return out
+                if other:
+                    pts = split_segment(a, b, [fields[i], fields[other[0]]])
+                    done[_key(a, b)], done[_key(b, a)] = pts, pts[::-1]
+    return done
+
+
+def _with_shared(
+    ring: FloatArray, shared: Mapping[tuple[float, float, float, float], FloatArray]
+) -> FloatArray:
+    """``ring`` with the split points of its shared segments inserted."""
+    pieces = []
+    for a, b in zip(ring, np.roll(ring, -1, axis=0), strict=True):
+        pieces += [a[None], shared.get(_key(a, b), ring[:0])]
+    return np.concatenate(pieces)
+
+
+def _keep_whole(
+    whole: set[tuple[float, float, float, float]],
+) -> Callable[[Region, SizeField, ProgressFn, StopFn], Discretized]:
+    """A :func:`engine.discretize.discretize` that leaves the segments of ``whole`` (by their
+    ends, either way) unsplit: the pieces of shared segments, split once for both sides, that
+    a side's own field must not split again."""
+
+    def nodes(region: Region, field: SizeField, progress: ProgressFn, stop: StopFn) -> Discretized:
+        own = discretize(region, field, progress, stop)
+        rings = []
+        for r, ring in enumerate(region.rings):
+            pts = own.points[own.ring_start[r] : own.ring_start[r + 1]]
+            # Every ring vertex is kept, in order: the points between two are that segment's.
+            at = np.append(np.flatnonzero(_rows_in(pts, ring)), len(pts))
+            keep = [
+                np.arange(at[k], at[k] + 1 if _key(a, b) in whole else at[k + 1])
+                for k, (a, b) in enumerate(zip(ring, np.roll(ring, -1, axis=0), strict=True))
+            ]
+            rings.append(pts[np.concatenate(keep)])
+        points = np.concatenate(rings)
+        start = np.cumsum([0] + [len(r) for r in rings])
+        idx = [np.arange(a, b) for a, b in itertools.pairwise(start)]
+        edges = [np.stack([i, np.roll(i, -1)], axis=1) for i in idx]
+        return Discretized(
+            points=points,
+            edges=np.concatenate(edges).astype(np.int64),
+            ring_of_edge=np.repeat(np.arange(len(rings)), np.diff(start)).astype(np.int64),
+            ring_start=start.astype(np.int64),
+            sizes=field(points),
+        )
+
+    return nodes
+
+
+def _pieces(
+    shared: Mapping[tuple[float, float, float, float], FloatArray],
+) -> set[tuple[float, float, float, float]]:
+    """The pieces between consecutive split points of the shared segments, either way."""
+    return {
+        key
+        for (a0, a1, b0, b1), pts in shared.items()
+        for u, v in itertools.pairwise([(a0, a1), *map(tuple, pts.tolist()), (b0, b1)])
+        for key in (u + v, v + u)
+    }
+
+
+def _rows_in(points: FloatArray, rows: FloatArray) -> BoolArray:
+    """Which of ``points`` are (exactly) one of ``rows``."""
+    return np.isin(points[:, 0] + 1j * points[:, 1], rows[:, 0] + 1j * rows[:, 1])
 
 
 def _sizing(
@@ -224,32 +261,41 @@ def mesh_subdomains(
     corners = np.unique(np.concatenate([r for p in own for r in p.rings]), axis=0)
     noded = [
         PolygonPart(
-            _insert(p.outer, corners, tol), tuple(_insert(h, corners, tol) for h in p.holes)
+            insert_points(p.outer, corners, tol, True),
+            tuple(insert_points(h, corners, tol, True) for h in p.holes),
         )
         for p in own
     ]
     sizes = list(sizes) + [None] * (len(parts) - len(sizes))
     geoms = check_constraints(constraints, Region(tuple(noded))) if constraints else []
-    boundary, base = None, replace(params.sizing, resample=False)
+    boundary, base, deviation = None, replace(params.sizing, resample=False), 0.0
     if params.sizing.resample:  # once for all, so that shared stretches stay shared
         sizing = [_sizing(params.sizing, sizes, noded, i) for i in range(len(noded))]
-        kept = [shapely.get_coordinates(g) for g in geoms]
-        fixed = np.concatenate([np.asarray(keep, dtype=np.float64).reshape(-1, 2), *kept])
-        boundary = resample_parts(noded, sizing, fixed)
+        boundary, geoms, deviation = resample_parts_constraints(noded, sizing, geoms, keep)
         noded = list(boundary.region.parts)
-        if constraints:
-            geoms = check_constraints(constraints, boundary.region)
+        check_inside(geoms, boundary.region)
     sizing = [_sizing(base, sizes, noded, i) for i in range(len(noded))]
     fields = [build_size_field(Region((p,)), s) for p, s in zip(noded, sizing, strict=True)]
-    split = _split_shared(noded, fields, tol)
+    shared = _split_shared(noded, fields, tol)
+    split = [
+        PolygonPart(_with_shared(p.outer, shared), tuple(_with_shared(h, shared) for h in p.holes))
+        for p in noded
+    ]
     timings = {"boundary": time.perf_counter() - started, "mesh": 0.0}
     meshes = []
+    nodes = _keep_whole(_pieces(shared))
     for k, (p, s) in enumerate(zip(split, sizing, strict=True)):
         if stop():
             raise Cancelled("stopped while meshing the subdomains")
-        progress("mesh", k / len(split))
+        progress("mesh", k / len(noded))
         got_mesh, took = mesh_region(
-            Region((p,)), s, params.relax, stop, params.max_triangles, split_sides=False
+            Region((p,)),
+            s,
+            params.relax,
+            stop,
+            params.max_triangles,
+            split_sides=False,
+            boundary=nodes,
         )
         meshes.append(got_mesh)
         for stage, seconds in took.items():
@@ -294,6 +340,8 @@ def mesh_subdomains(
         result.parameters["constraints"] = plain_geometries(geoms)
     if boundary is not None:
         result.smoothed.summary["boundary"] = boundary.summary()
+        if geoms:
+            result.smoothed.summary["boundary"]["constraints_max_deviation"] = deviation
     return Subdomains(
         result=result,
         region=Region(tuple(split)),

@@ -51,6 +51,30 @@ def _check(out: Constrained, region: Region, constraints: list[dict[str, Any]]) 
     assert np.array_equal(first.points[out.nodes], mesh.points[out.nodes])
 
 
+@pytest.mark.parametrize(
+    ("ring", "ends", "n"),
+    [
+        ([[0, 0], [1, 0], [1, 1], [0, 1]], [[0.5, 0.5], [0.5, 2.225073858507203e-309]], 1),
+        (
+            [[0, 0], [0, -1], [0, -2], [1, -2], [1, -1], [1, 0], [1, 1], [0, 1], [-1, 1], [-1, 0]],
+            [[0.0, 0.5], [0.9999999999999999, 0.0]],
+            3,
+        ),
+    ],
+)
+def test_a_line_ending_a_hair_from_the_ring_is_only_itself(
+    ring: list[list[float]], ends: list[list[float]], n: int
+) -> None:
+    """A line ending a rounding error from the ring (a spur of the noded ring along it, or
+    the ring's halfway point at its end): no piece of ring is taken for a piece of the line
+    (both found by the property test below)."""
+    region = make_region([(ring, [])])
+    cs = [line(*ends)]
+    out = mesh_with_constraints(region, _params(size=0.5), cs)
+    _check(out, region, cs)
+    assert len(out.edges) == n
+
+
 def test_a_dangling_line_and_points_are_edges_and_nodes() -> None:
     cs = [line([0.15, 0.2], [0.5, 0.45], [0.45, 0.8]), point(0.3, 0.7), point(0.85, 0.2)]
     out = mesh_with_constraints(SQUARE, _params("ga"), cs)

@@ -240,9 +240,9 @@ def test_random_subdomains_with_constraints_and_refinements_conform_and_keep_the
         Refinement(
             {"type": "Point", "coordinates": data.draw(coord)},
             data.draw(st.sampled_from([0.03, 0.05])),
-            # Known gap: a refinement steeper than 1.3 right at a shared edge can leave the two
-            # sides split differently ("do not conform along a shared edge"); see issue 16.
-            data.draw(st.none() | st.floats(1.1, 1.3)),
+            # Steep ones (on main, 1.4 and up) once left the two sides of a shared edge split
+            # differently: each side re-split the shared pieces to its own field.
+            data.draw(st.none() | st.floats(1.1, 2.0)),
         )
         for _ in range(data.draw(st.integers(0, 2)))
     )
@@ -256,6 +256,30 @@ def test_random_subdomains_with_constraints_and_refinements_conform_and_keep_the
         raise
     _check(sub, [shapely.Polygon(p[0]) for p in parts])
     _constraints_kept(sub, cs)
+
+
+@pytest.mark.parametrize(("at", "growth"), [((0.24, 0.5), 1.4), ((0.25, 0.55), 1.5)])
+def test_a_steep_point_refinement_by_a_shared_edge_conforms(
+    at: tuple[float, float], growth: float
+) -> None:
+    """Strips cut at x = 0.25 and 0.5, a point refinement growing at 1.4-1.5 by the first cut
+    (both failed on main: each side re-split the shared pieces to its own field)."""
+    from engine.refinement import Refinement
+
+    xs = [0.0, 0.25, 0.5, 1.0]
+    parts = [([[a, 0], [b, 0], [b, 1], [a, 1]], []) for a, b in itertools.pairwise(xs)]
+    point = Refinement({"type": "Point", "coordinates": list(at)}, 0.03, growth)
+    params = PipelineParams(
+        SizingParams(0.2, refinements=(point,)), smoothing=SmoothingParams("laplacian")
+    )
+    sub = mesh_subdomains(parts, params)
+    _check(sub, [shapely.Polygon(p[0]) for p in parts])
+    mesh = sub.result.smoothed.mesh
+    # The cut by the refinement is graded: its first edges near the point are short.
+    interfaces, _ = interface_edges(mesh.triangles, sub.triangle_region)
+    lengths = np.linalg.norm(np.diff(mesh.points[interfaces], axis=1)[:, 0], axis=1)
+    assert lengths.min() < 0.05
+    assert np.isclose(lengths.sum(), 2.0)
 
 
 def test_a_line_crossing_an_interface_at_one_of_its_nodes_meets_it_there() -> None:
@@ -347,3 +371,79 @@ def test_one_polygon_as_subdomains_matches_the_plain_pipeline(method: str) -> No
     assert all(v >= 0 for v in sub.timings.values())
     worst = sub.smoothed.summary["quality"]["min"]
     assert worst >= plain.smoothed.summary["quality"]["min"] - 0.005
+
+
+@settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    cuts=st.lists(st.sampled_from([0.25, 0.5, 0.75]), min_size=1, max_size=3, unique=True),
+    kinks=st.lists(st.floats(-0.08, 0.08), min_size=3, max_size=3),
+    n=st.integers(40, 300),
+    sizes=st.lists(st.sampled_from([None, 0.07, 0.15]), min_size=4, max_size=4),
+    growth=st.floats(1.1, 2.0),
+)
+def test_densely_digitised_interfaces_conform_without_resample(
+    cuts: list[float], kinks: list[float], n: int, sizes: list[float | None], growth: float
+) -> None:
+    """Interfaces traced with many vertices per size (up to 60), kept as given (no
+    ``resample``): each side takes exactly the interface's nodes, every input vertex is a
+    node, and the two strips' meshes meet along the whole interface."""
+    lines = [[[0.0, 0.0], [0.0, 1.0]]]
+    lines += [_digitised(x, k, 0.0, n) for x, k in zip(sorted(cuts), kinks, strict=False)]
+    lines += [[[1.0, 0.0], [1.0, 1.0]]]
+    parts = [([*a, *b[::-1]], []) for a, b in itertools.pairwise(lines)]
+    params = PipelineParams(
+        SizingParams(0.2, growth=growth), smoothing=SmoothingParams("laplacian")
+    )
+    sub = mesh_subdomains(parts, params, sizes=sizes[: len(parts)])
+    _check(sub, [shapely.Polygon(p[0]) for p in parts])
+    mesh = sub.result.smoothed.mesh
+    given_xy = np.concatenate([np.asarray(line) for line in lines[1:-1]])
+    assert shapely.distance(shapely.MultiPoint(mesh.points), shapely.points(given_xy)).max() == 0
+    interfaces, _ = interface_edges(mesh.triangles, sub.triangle_region)
+    length = np.linalg.norm(np.diff(mesh.points[interfaces], axis=1)[:, 0], axis=1).sum()
+    assert np.isclose(length, sum(shapely.LineString(line).length for line in lines[1:-1]))
+
+
+def test_digitised_constraint_lines_are_thinned_with_resampled_subdomains() -> None:
+    """Two strips with a digitised interface and two digitised constraint lines crossing it
+    and each other, with ``resample``: the lines are thinned like the rings (their ends, the
+    crossing and the interface crossings kept), every input vertex stays within the
+    tolerance, and the mesh holds the thinned lines as chains of edges."""
+    rng = np.random.default_rng(5)
+    y = np.linspace(0.0, 1.0, 300)
+    cut = np.c_[1.0 + 0.01 * np.sin(40 * y), y]
+    left = ([[0.0, 0.0], *cut.tolist(), [0.0, 1.0]], [])
+    right = ([*cut.tolist(), [2.0, 1.0], [2.0, 0.0]], [])
+    t = np.linspace(0.0, 1.0, 400)[:, None]
+    fault = (1 - t) * [0.3, 0.2] + t * [1.7, 0.8]
+    dyke = (1 - t) * [0.4, 0.9] + t * [1.6, 0.1]
+    for path in (fault, dyke):
+        path[1:-1] += rng.uniform(-0.002, 0.002, (len(path) - 2, 2))
+    cs = [{"type": "LineString", "coordinates": p.tolist()} for p in (fault, dyke)]
+    params = PipelineParams(SizingParams(0.1, resample=True), smoothing=SmoothingParams("ga"))
+    sub = mesh_subdomains([left, right], params, constraints=cs)
+    mesh = sub.result.smoothed.mesh
+    assert sub.result.smoothed.summary["inverted"] == 0
+    report = sub.result.smoothed.summary["boundary"]
+    tolerance = 0.1 * 0.1
+    assert 0 < report["constraints_max_deviation"] <= tolerance
+    thinned = [shapely.geometry.shape(g) for g in sub.result.parameters["constraints"]]
+    assert all(len(g.coords) < 40 for g in thinned)  # from 400 vertices each
+    # Every input vertex is within the tolerance of the mesh's constraint edges.
+    held = sub.constraints
+    assert held is not None
+    chains = shapely.MultiLineString(list(mesh.points[held.edges]))
+    given_xy = np.concatenate([fault, dyke])
+    assert shapely.distance(chains, shapely.points(given_xy)).max() <= tolerance + 1e-12
+    # The mesh holds exactly the thinned lines: same length, every edge on its line.
+    _constraints_kept(sub, sub.result.parameters["constraints"])
+    for i, g in enumerate(thinned):
+        mid = mesh.points[held.edges[held.edge_constraint == i]].mean(axis=1)
+        assert shapely.distance(g, shapely.points(mid)).max() < 1e-9
+    # The lines' crossing with each other is kept where it was drawn.
+    crossing = shapely.get_coordinates(shapely.LineString(fault) & shapely.LineString(dyke))
+    assert np.hypot(*(mesh.points - crossing[0]).T).min() < 1e-9
+    # Each line meets the (resampled) interface at a node of both.
+    interfaces, _ = interface_edges(mesh.triangles, sub.triangle_region)
+    both = np.intersect1d(interfaces.ravel(), held.edges.ravel())
+    assert len(both) >= 2

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import shapely
 
 from service.cli import main
 from service.cli.control_flags import add_control_flags, control_inputs
@@ -94,3 +95,48 @@ def test_local_refinement_growth_and_lon_lat_control(tmp_path: Path) -> None:
         ]
         assert np.allclose(pts[dam_edges][..., 1], 60.05, atol=1e-4)  # the line, in lon/lat
     assert counts[1] > 1.5 * counts[0]  # the slower-growing refinement reaches further
+
+
+def test_local_mesh_of_subdomains_with_a_digitised_interface_and_a_fault(tmp_path: Path) -> None:
+    """A FeatureCollection of two materials sharing a digitised edge, each with its own
+    ``properties.h``, and a digitised fault crossing the edge, with ``--resample``: one
+    conforming mesh through the API's own process (regions, the interface tag, the fault's
+    edges, the thinned interface and fault within the tolerance, each polygon at its size)."""
+    y = np.linspace(0.0, 1.0, 200)
+    cut = np.c_[1.0 + 0.01 * np.sin(30 * y), y].tolist()
+    left = [[0.0, 0.0], *cut, [0.0, 1.0], [0.0, 0.0]]
+    right = [*cut, [2.0, 1.0], [2.0, 0.0], cut[0]]
+    features = [
+        {"type": "Feature", "properties": {"name": name, "h": h},
+         "geometry": {"type": "Polygon", "coordinates": [ring]}}
+        for name, h, ring in (("steel", 0.2, left), ("water", 0.08, right))
+    ]  # fmt: skip
+    region = tmp_path / "materials.geojson"
+    region.write_text(json.dumps({"type": "FeatureCollection", "features": features}))
+    t = np.linspace(0.0, 1.0, 300)[:, None]
+    fault_xy = (1 - t) * [0.3, 0.2] + t * [1.7, 0.8] + 1e-3 * np.sin(50 * t)
+    fault = tmp_path / "fault.geojson"
+    geometry = {"type": "LineString", "coordinates": fault_xy.tolist()}
+    fault.write_text(json.dumps({"type": "Feature", "properties": {"name": "fault"},
+                                 "geometry": geometry}))  # fmt: skip
+    out = tmp_path / "materials.json"
+    args = ["mesh", str(region), "--size", "0.2", "--smooth", "laplacian", "--resample"]
+    assert main([*args, "--constraints", str(fault), "-o", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    assert doc["regions"] == {"steel": 1, "water": 2}
+    assert {"steel|water", "fault"} <= set(doc["tags"])
+    pts, tris = np.asarray(doc["points"]), np.asarray(doc["triangles"])
+    region_of = np.asarray(doc["cell_data"]["region"])
+    a, b, c = (pts[tris[:, k]] for k in range(3))
+    area = 0.5 * np.abs((b - a)[:, 0] * (c - a)[:, 1] - (b - a)[:, 1] * (c - a)[:, 0])
+    density = [np.sum(region_of == k) / area[region_of == k].sum() for k in (1, 2)]
+    assert density[1] > 1.5 * density[0]  # each material at its own size
+    lines, tag = np.asarray(doc["lines"]), np.asarray(doc["line_data"]["tag"])
+    tolerance = 0.1 * 0.08  # a tenth of the smallest size
+    for name, drawn in (("steel|water", np.asarray(cut)), ("fault", fault_xy)):
+        edges = lines[tag == doc["tags"][name]]
+        chain = shapely.MultiLineString(list(pts[edges]))
+        assert shapely.distance(chain, shapely.points(drawn)).max() <= tolerance + 1e-9
+        assert len(np.unique(edges)) < len(drawn) / 2  # thinned, not every input vertex
+    boundary = doc["summary"]["smoothed"]["boundary"]
+    assert 0 < boundary["constraints_max_deviation"] <= tolerance
