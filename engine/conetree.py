@@ -89,14 +89,16 @@ def cone_min(t: ConeTree, x: float, y: float) -> tuple[float, int]:  # pragma: n
     work = 0
     if t.hmin.shape[0] == 0:
         return max(best, t.size_min), work
+    # Each entry keeps the bound it was pushed with: popping it need not compute it again.
     stack = np.empty(_STACK, dtype=np.int64)
-    stack[0] = 0
+    bounds = np.empty(_STACK)
+    stack[0], bounds[0] = 0, _bound(x, y, t, 0)
     top = 1
     shrink = 1.0 + TOLERANCE
     while top > 0:
         top -= 1
         node = stack[top]
-        if _bound(x, y, t, node) * shrink >= best:
+        if bounds[top] * shrink >= best:
             continue
         c0, c1 = t.child[node, 0], t.child[node, 1]
         if c0 < 0:
@@ -107,10 +109,13 @@ def cone_min(t: ConeTree, x: float, y: float) -> tuple[float, int]:  # pragma: n
                     best = v
             continue
         # Push the farther child first so the nearer one is searched first.
-        if _bound(x, y, t, c0) <= _bound(x, y, t, c1):
+        b0, b1 = _bound(x, y, t, c0), _bound(x, y, t, c1)
+        if b0 <= b1:
             stack[top], stack[top + 1] = c1, c0
+            bounds[top], bounds[top + 1] = b1, b0
         else:
             stack[top], stack[top + 1] = c0, c1
+            bounds[top], bounds[top + 1] = b0, b1
         top += 2
     return max(best, t.size_min), work
 

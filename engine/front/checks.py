@@ -75,6 +75,8 @@ def front_clear(
     new_uw = w != pu  # edge u-w is new (not already the front edge w -> u)
     new_wv = w != nv
     ce2, cv2 = clear_edge * clear_edge, clear_vertex * clear_vertex
+    # Tolerances of the triangle's sides for the vertex test, computed once when first needed.
+    lu = lv = lw = -1.0
     hits = ix.hits
     for h in range(gather(fr, ix, x0, y0, x1, y1)):
         f = hits[h]
@@ -90,11 +92,14 @@ def front_clear(
             return False
         if a != u and a != v and a != w:
             # A front vertex inside (or on) the triangle.
-            la = tol * math.hypot(vx - ux, vy - uy)
+            if lu < 0.0:
+                lu = tol * math.hypot(vx - ux, vy - uy)
+                lv = tol * math.hypot(wx - vx, wy - vy)
+                lw = tol * math.hypot(ux - wx, uy - wy)
             if (
-                orient(ux, uy, vx, vy, ax, ay) > -la
-                and orient(vx, vy, wx, wy, ax, ay) > -tol * math.hypot(wx - vx, wy - vy)
-                and orient(wx, wy, ux, uy, ax, ay) > -tol * math.hypot(ux - wx, uy - wy)
+                orient(ux, uy, vx, vy, ax, ay) > -lu
+                and orient(vx, vy, wx, wy, ax, ay) > -lv
+                and orient(wx, wy, ux, uy, ax, ay) > -lw
             ):
                 return False
         if w < 0:

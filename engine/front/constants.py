@@ -14,8 +14,8 @@ N_COLS = 9
 SIZE = 2
 # Scalar state indices: points, triangles, slots, index entries and heap entries used; live
 # slots; the query stamp; whether (and for how many more triangles) the rules are relaxed;
-# triangles made; index tree nodes used.
-NP, NT, NS, NE, NH, LIVE, QUERY, RELAXED, RELAX_LEFT, OPS, NN = range(11)
+# triangles made; index tree nodes used; index entries right after its last rebuild.
+NP, NT, NS, NE, NH, LIVE, QUERY, RELAXED, RELAX_LEFT, OPS, NN, KEPT = range(12)
 N_STATE = 16
 # Kernel status codes.
 DONE, BUDGET, STUCK, GROW = 0, 1, 2, 3

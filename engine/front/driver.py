@@ -72,7 +72,7 @@ def _run(fr: Front, ix: Index, hp: Heap, sf: SizeTuple, budget: int) -> int:
             not queue.rebuild(fr, hp) or st[NH] + 64 > hp.key.shape[0]
         ):
             return GROW
-        if st[NE] + 4096 > ix.ent.shape[0] or st[NN] + 4096 > ix.node.shape[0]:
+        if st[NE] + 4096 > ix.ent.shape[0] or st[NN] + 4096 > ix.node.shape[0] or index.stale(fr):
             if not index.rebuild(fr, ix):
                 return GROW
             if st[NE] + 4096 > ix.ent.shape[0] or st[NN] + 4096 > ix.node.shape[0]:

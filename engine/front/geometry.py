@@ -58,11 +58,11 @@ def segments_meet(
 ) -> bool:  # fmt: skip
     """Whether two segments cross or come within ``tol`` of touching (conservative)."""
     lq = math.hypot(q2x - q1x, q2y - q1y)
-    lp = math.hypot(p2x - p1x, p2y - p1y)
     d1 = orient(q1x, q1y, q2x, q2y, p1x, p1y)
     d2 = orient(q1x, q1y, q2x, q2y, p2x, p2y)
     if (d1 > tol * lq and d2 > tol * lq) or (d1 < -tol * lq and d2 < -tol * lq):
         return False
+    lp = math.hypot(p2x - p1x, p2y - p1y)  # only now: most pairs are apart by the first test
     d3 = orient(p1x, p1y, p2x, p2y, q1x, q1y)
     d4 = orient(p1x, p1y, p2x, p2y, q2x, q2y)
     if (d3 > tol * lp and d4 > tol * lp) or (d3 < -tol * lp and d4 < -tol * lp):

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numba as nb
 
-from .constants import ALIVE, NE, NEXT, NN, NS, QUERY, STAMP, VER, VERT
+from .constants import ALIVE, KEPT, NE, NEXT, NN, NS, QUERY, STAMP, VER, VERT
 from .state import Front, Index, IntArray, uncounted
 
 #: Edges whose bounding box is at most this fraction of a cell wide go to the trees.
@@ -23,6 +23,12 @@ MAX_DEPTH = 40
 #: A node's entries reach at most LOOSE times its side outside it: half the side (an entry's
 #: centre lies in its node and it is at most the side wide), plus slack for rounding.
 LOOSE = 0.75
+#: The index is rebuilt once it holds STALE times the entries it had after its last rebuild,
+#: plus an eighth of the slots ever made (a rebuild reads them all) and STALE_MIN: deletion is
+#: lazy, and where the front is fine (many edges a cell) the dead entries it leaves would make
+#: the queries there slower and slower.
+STALE = 2
+STALE_MIN = 4096
 #: Columns of ``Index.head``: the cell's list of entries, the cell's tree root.
 LIST, TREE = 0, 1
 #: Columns of ``Index.node``: four children (x then y halves), then the node's first entry.
@@ -116,10 +122,18 @@ def rebuild(fr: Front, ix: Index) -> bool:
     ix.head[:] = -1
     fr.st[NE] = 0
     fr.st[NN] = 0
-    for s in range(fr.st[NS]):  # noqa: SIM110 (numba compiles no all() over a generator)
+    for s in range(fr.st[NS]):
         if fr.slots[s, ALIVE] == 1 and not insert(fr, ix, s):
             return False
+    fr.st[KEPT] = fr.st[NE]
     return True
+
+
+@uncounted(inline="always")
+def stale(fr: Front) -> bool:
+    """Whether dead entries are due to be dropped (see :data:`STALE`)."""
+    st = fr.st
+    return st[NE] > STALE * st[KEPT] + st[NS] // 8 + STALE_MIN
 
 
 @uncounted(inline="always")

@@ -45,6 +45,7 @@ NO_REFCOUNT: dict[str, tuple[str, ...]] = {
         "_insert_fine",
         "insert",
         "rebuild",
+        "stale",
         "_collect",
         "_gather_fine",
     ),

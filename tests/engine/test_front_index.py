@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from engine import Mesh, Region, SizingParams, make_region
 from engine.discretize import discretize
 from engine.front import advance_front, driver, index
-from engine.front.constants import ALIVE, NEXT, NN, NS, VERT
+from engine.front.constants import ALIVE, BUDGET, KEPT, NE, NEXT, NN, NS, VER, VERT
 from engine.sizing import build_size_field
 
 from .regions import assert_conforming
@@ -75,6 +75,24 @@ def _indexed(region: Region, size: float) -> tuple[driver.Front, driver.Index]:
     )
     assert driver._init(fr, ix, hp)
     return fr, ix
+
+
+def test_the_index_drops_dead_entries_as_the_front_advances() -> None:
+    # Deletion is lazy: kept until the arrays were full, the dead entries piled up in the
+    # cells and trees where the front is fine, and every query there scanned them.
+    region, _ = GRADED["slit_1e-5"]
+    field = build_size_field(region, SizingParams(size=0.01))
+    boundary = discretize(region, field)
+    fr = driver._new_front(boundary, field, 1024)
+    ix = driver._new_index(boundary.points, field, len(boundary.edges), len(fr.slots))
+    hp = driver.Heap(key=np.empty(1 << 16), ref=np.empty((1 << 16, 2), dtype=np.int64))
+    assert driver._init(fr, ix, hp)
+    fr, ix, hp = driver._grown(fr, ix, hp, 15_000)
+    assert driver._run(fr, ix, hp, field.as_tuple(), 15_000) == BUDGET  # mid-way
+    ne, ns = int(fr.st[NE]), int(fr.st[NS])
+    slot, ver = ix.ent[:ne, 0], ix.ent[:ne, 1]
+    dead = ne - int(np.sum((fr.slots[slot, ALIVE] == 1) & (fr.slots[slot, VER] == ver)))
+    assert dead <= (index.STALE - 1) * fr.st[KEPT] + ns // 8 + index.STALE_MIN
 
 
 def test_short_edges_go_to_the_trees() -> None:
