@@ -6,24 +6,26 @@ them. A ladder rung across a theta-wedge has an angle of ``180 - (180 - theta) /
 (105 degrees at 30), which caps its radius ratio at 0.655 whatever the node spacing, while the
 corner's own triangle reaches 0.767. Each such triangle worse than the worst triangle holding an
 input corner whole (nothing can lift that one) is offered a new interior node joined to the
-corners of a small cavity: the triangle alone, with one neighbour across an interior side, or
-with all its interior neighbours. The node goes where the worst radius ratio of its fan is best
-(compass search); the best cavity is refilled when that beats the cavity's old worst by
-:data:`GAIN` and no angle falls more than 3 degrees below min(the cavity's smallest, 30), so an
-input corner's angle is split only where both halves stay above the bound min(corner, 30).
+corners of a small cavity: the triangle alone, with one neighbour across an interior side, with
+all its interior neighbours, or three triangles in a row. The node goes where the worst radius
+ratio of its fan is best (compass search); the best cavity is refilled when that beats the
+cavity's old worst by :data:`GAIN`, no angle falls below min(the cavity's smallest, 30), so an
+input corner's angle is split only where both halves stay above the bound min(corner, 30), and
+swapping would not flip a side of it to join the node to a corner beyond.
 """
 
 from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Callable
 
 import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
 from .mesh import Mesh
-from .quality import min_angle, radius_ratio
+from .quality import min_angle, radius_ratio, shape_quality
 from .relax import radius_ratio_xy
 from .swap import _neighbours
 
@@ -38,6 +40,8 @@ SPLIT_BELOW = 0.85
 GAIN = 0.02
 #: Passes of :func:`split_spanning`.
 ROUNDS = 3
+#: Swapping's margin (:data:`engine.swap._MARGIN` or more): flips it would make.
+_SWAP_MARGIN = 1e-9
 #: Compass-search halvings when placing the new node.
 _HALVINGS = 14
 #: Triangles with all three nodes on the boundary and a smaller angle (degrees) than this are
@@ -50,8 +54,6 @@ EDGE_GAIN_DEG = 0.5
 #: Evenly spaced trial positions along a boundary side before refining the best.
 _EDGE_SAMPLES = 32
 _THIRTY = math.radians(30.0)
-#: How far below min(the cavity's smallest angle, 30 degrees) the fan's smallest may be placed.
-_ANGLE_SLACK = math.radians(3.0)
 
 
 @nb.njit(cache=True, inline="always")
@@ -154,6 +156,75 @@ def _cavities(tri: IntArray, nbr: IntArray, t: int) -> list[tuple[list[int], lis
     return out
 
 
+def _chains(tri: IntArray, nbr: IntArray, t: int) -> list[tuple[list[int], list[int]]]:
+    """Cavities of three triangles in a row from ``t`` (``t``, a neighbour, one of its other
+    neighbours) that form a disc without inner nodes: (triangles, corners counter-clockwise).
+
+    In a coarse wedge the rung after the corner's triangle has only the next rung beside it,
+    and a node in those two alone leaves a flat fan triangle on the longer rung (0.65 at 36
+    degrees); the triangle beyond the next rung gives the node room.
+    """
+    out = []
+    for n in nbr[t].tolist():
+        if n < 0:
+            continue
+        for m in nbr[n].tolist():
+            if m < 0 or m == t:
+                continue
+            ring = _ring(tri, [t, n, m])
+            if ring is not None:
+                out.append(([t, n, m], ring))
+    return out
+
+
+def _swapped_into_corner(
+    p: FloatArray,
+    tri: IntArray,
+    nbr: IntArray,
+    tris: list[int],
+    xy: tuple[float, float],
+    least: float,
+) -> bool:
+    """Whether diagonal swapping (:func:`engine.swap.swap_diagonals`, by shape quality) would
+    flip a side of the cavity ``tris`` refilled around ``xy`` to join the new node to the far
+    corner of the triangle beyond, leaving an angle below ``least`` (radians).
+
+    In a coarse wedge (7 triangles) the fan beside the corner's triangle is worse than the two
+    triangles that halve the corner, so swapping split a 56-degree corner into 28-degree ones.
+    """
+    inside = set(tris)
+    for u in tris:
+        for k in range(3):
+            n = int(nbr[u, k])
+            if n < 0 or n in inside:
+                continue
+            a, b = int(tri[u, (k + 1) % 3]), int(tri[u, (k + 2) % 3])
+            c = next(int(v) for v in tri[n] if v != a and v != b)
+            pts = np.array([p[a], p[b], p[c], xy])
+            before = shape_quality(pts, np.array([[0, 1, 3], [1, 0, 2]])).min()
+            flipped = np.array([[0, 2, 3], [2, 1, 3]])
+            after = shape_quality(pts, flipped)
+            flips = after.min() > before * (1.0 + _SWAP_MARGIN) and after.min() > 0.0
+            if flips and np.radians(min_angle(pts, flipped).min()) < least:
+                return True
+    return False
+
+
+def _ring(tri: IntArray, tris: list[int]) -> list[int] | None:
+    """The corners counter-clockwise of the triangles ``tris`` when they form a disc with no
+    node inside; None otherwise."""
+    sides = {
+        (int(a), int(b)) for t in tris for a, b in zip(tri[t], np.roll(tri[t], -1), strict=True)
+    }
+    after = {a: b for a, b in sides if (b, a) not in sides}
+    if len(after) != len(tris) + 2 or len(set(after.values())) != len(after):
+        return None
+    ring = [min(after)]
+    while len(ring) <= len(after) and after.get(ring[-1], ring[0]) != ring[0]:
+        ring.append(after[ring[-1]])
+    return ring if len(ring) == len(after) else None
+
+
 def split_spanning(mesh: Mesh, rounds: int = ROUNDS, *, sides: bool = True) -> Mesh:
     """``mesh`` with a new node in each wedge-spanning triangle where that helps.
 
@@ -172,16 +243,41 @@ def split_spanning(mesh: Mesh, rounds: int = ROUNDS, *, sides: bool = True) -> M
     >>> split.n_points, round(float(radius_ratio(split.points, split.triangles).min()), 3)
     (7, 0.655)
     """
-    steps = (_split_sides_round, _split_round) if sides else (_split_round,)
+    if not sides:
+        return _passes(mesh, rounds, (_split_round,))[0]
+    both, split_sides = _passes(mesh, rounds, (_split_sides_round, _split_round))
+    if not split_sides:
+        return both
+    plain, _ = _passes(mesh, rounds, (_split_round,))
+    # A side split is kept by its cavity's figures, but it can take a cavity from a better
+    # interior node (a 25.6-degree wedge ended at 0.645 with it, 0.689 without): keep the
+    # whole pass only where the mesh's smallest angle (up to 30) or its worst gains.
+    return both if _figures(both) >= _figures(plain) else plain
+
+
+Step = Callable[[Mesh], "Mesh | None"]
+
+
+def _passes(mesh: Mesh, rounds: int, steps: tuple[Step, ...]) -> tuple[Mesh, bool]:
+    """``mesh`` after up to ``rounds`` passes of ``steps``, and whether the first step (the
+    side splits, where given) changed it."""
+    first = False
     for _ in range(rounds):
         changed = False
-        for step in steps:
+        for i, step in enumerate(steps):
             split = step(mesh)
             if split is not None:
                 mesh, changed = split, True
+                first = first or (i == 0 and len(steps) > 1)
         if not changed:
             break
-    return mesh
+    return mesh, first
+
+
+def _figures(mesh: Mesh) -> tuple[float, float]:
+    """The mesh's smallest angle (degrees, up to 30, to a tenth) and worst radius ratio."""
+    p, tri = mesh.points, mesh.triangles
+    return round(min(float(min_angle(p, tri).min()), 30.0), 1), float(radius_ratio(p, tri).min())
 
 
 def _split_sides_round(mesh: Mesh) -> Mesh | None:
@@ -271,17 +367,19 @@ def _split_round(mesh: Mesh) -> Mesh | None:
     fans: list[IntArray] = []
     for t in candidates[np.argsort(q[candidates], kind="stable")].tolist():
         best: tuple[float, float, float, list[int], list[int]] | None = None
-        for tris, ring in _cavities(tri, nbr, t):
+        for tris, ring in _cavities(tri, nbr, t) + _chains(tri, nbr, t):
             if used[tris].any():
                 continue
-            x, y, worst, _, smallest = _place(p, np.asarray(ring, dtype=np.int64))
-            # No angle well below both the cavity's smallest and 30 degrees, so an input
-            # corner's angle is only split where both halves stay above min(corner, 30); the
-            # slack is for the smoother, which lifts the fan's angles with its free nodes.
+            # No angle below both the cavity's smallest and 30 degrees, so an input corner's
+            # angle is only split where both halves stay above min(corner, 30). No slack: the
+            # relaxation that follows takes the node to where its fan's worst is best, and
+            # the smoother did not lift the angle back (a 56-degree wedge kept 28.2 after a
+            # 3-degree slack, 52-degree ones 29.4 after half a degree).
             old = tri[tris]
-            gains = worst > radius_ratio(p, old).min() * (1.0 + GAIN)
             least = min(float(np.radians(min_angle(p, old)).min()), _THIRTY)
-            gains = gains and smallest >= least - _ANGLE_SLACK
+            x, y, worst, _, smallest = _place(p, np.asarray(ring, dtype=np.int64))
+            gains = worst > radius_ratio(p, old).min() * (1.0 + GAIN) and smallest >= least
+            gains = gains and not _swapped_into_corner(p, tri, nbr, tris, (x, y), least)
             if gains and (best is None or worst > best[2]):
                 best = (x, y, worst, tris, ring)
         if best is None:

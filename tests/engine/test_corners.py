@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -58,6 +59,30 @@ def test_a_wedge_reaches_its_corner_bound(
         # Before wedge-spanning triangles got a node (engine.spanning), a ladder rung across
         # the wedge (three boundary nodes, 105 degrees at its foot at a 30-degree corner) was
         # the worst triangle: 0.63 against the corner triangle's 0.81 at 32.5 degrees.
+        assert quality.radius_ratio.min() >= 0.95 * _corner_triangle_ratio(theta)
+
+
+@pytest.mark.parametrize(
+    ("theta", "turn", "side", "size"),
+    [
+        # A coarse wedge (11 triangles): the rung after the corner's triangle had only the next
+        # rung beside it, and a node in those two left a flat triangle (radius ratio 0.617
+        # against the bound 0.813) until three triangles in a row were offered.
+        (36.171, 0.4502, 1.4325, 0.2381),
+        # A coarse wedge (5 triangles): a node was placed 2.5 degrees under the bound and
+        # swapping then joined it to the 56-degree corner, halving it (28.2 degrees).
+        (56.433, 0.1179, 1.7985, 0.2906),
+        # A side split took the cavity of a better interior node: 0.645 with it, 0.689 without
+        # (the bound is 0.655), until the pass with side splits had to beat the pass without.
+        (25.578, 5.6621, 0.5231, 0.1257),
+    ],
+)
+def test_wedges_that_missed_their_corner_bound(
+    theta: float, turn: float, side: float, size: float
+) -> None:
+    quality = triangle_quality(_wedge(theta, turn, side, size))
+    assert quality.min_angle.min() >= min(theta, 30.0) - 0.5
+    if theta <= 40.0:
         assert quality.radius_ratio.min() >= 0.95 * _corner_triangle_ratio(theta)
 
 
