@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from dataclasses import asdict, replace
 from typing import Any
 
@@ -158,7 +158,7 @@ def mesh_region(
     max_triangles: int = 5_000_000,
     progress: ProgressFn | None = None,
     *,
-    split_sides: bool = True,
+    held_sides: Collection[tuple[float, float, float, float]] = (),
     boundary: Callable[[Region, SizeField, ProgressFn, StopFn], Discretized] = discretize,
 ) -> tuple[Mesh, dict[str, float]]:
     """Mesh ``region`` (no swapping, no smoothing); returns the mesh and stage timings.
@@ -166,9 +166,9 @@ def mesh_region(
     The mesher is the advancing front followed by ``relax_sweeps`` sweeps of constrained
     relaxation, edge collapses where fronts left a node too many
     (:func:`engine.collapse.collapse_edges`), a node in each wedge-spanning triangle where
-    that helps (:func:`engine.spanning.split_spanning`; with ``split_sides`` it may also split
-    boundary segments, which a subdomain sharing them with a neighbour must not) and relaxation
-    again (0 gives the raw front).
+    that helps (:func:`engine.spanning.split_spanning`, which may also split boundary sides,
+    except those in ``held_sides``, by their ends' coordinates: a subdomain's sides shared with
+    a neighbour) and relaxation again (0 gives the raw front).
     Raises :class:`LimitExceeded` when the estimated (or, while meshing, the actual) triangle
     count is over ``max_triangles``; every stage polls ``should_stop`` and reports ``progress``
     (stages ``sizing``, ``estimate``, ``discretize``, ``front``, ``relax``, ``collapse``).
@@ -176,7 +176,7 @@ def mesh_region(
     field and the estimate see the resampled boundary. ``boundary`` places the boundary nodes
     (:func:`engine.discretize.discretize`; subdomains keep the pieces of their shared edges,
     split once for both sides, whole that way): no later stage removes or moves a boundary
-    node, and only the side splits (``split_sides``) add one, on a boundary segment.
+    node, and only the side splits add one, on a boundary segment not in ``held_sides``.
     """
     progress = progress or _no_progress
     should_stop = should_stop or _never
@@ -202,7 +202,7 @@ def mesh_region(
     mesh = relax(front, relax_sweeps, should_stop=should_stop)
     if relax_sweeps > 0:  # 0 asks for the raw front
         progress("collapse", 0.0)
-        collapsed = split_spanning(collapse_edges(mesh, should_stop=should_stop), sides=split_sides)
+        collapsed = split_spanning(collapse_edges(mesh, should_stop=should_stop), held=held_sides)
         progress("relax", 0.5)
         mesh = relax(collapsed, relax_sweeps, should_stop=should_stop)
     progress("relax", 1.0)

@@ -16,9 +16,10 @@ swapping would not flip a side of it to join the node to a corner beyond.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 
 import numba as nb
 import numpy as np
@@ -225,13 +226,20 @@ def _ring(tri: IntArray, tris: list[int]) -> list[int] | None:
     return ring if len(ring) == len(after) else None
 
 
-def split_spanning(mesh: Mesh, rounds: int = ROUNDS, *, sides: bool = True) -> Mesh:
+def split_spanning(
+    mesh: Mesh,
+    rounds: int = ROUNDS,
+    *,
+    sides: bool = True,
+    held: Collection[tuple[float, float, float, float]] = (),
+) -> Mesh:
     """``mesh`` with a new node in each wedge-spanning triangle where that helps.
 
     Up to ``rounds`` passes: a cavity is taken by one triangle a pass, so a neighbour whose best
     cavity overlapped it tries again around the new node. Each pass first splits boundary
-    sides (:func:`_split_sides_round`, skipped when ``sides`` is false: a subdomain's sides
-    are shared with its neighbour), then adds interior nodes.
+    sides (:func:`_split_sides_round`; none when ``sides`` is false, and never a side in
+    ``held``, given by its ends' coordinates ``(ax, ay, bx, by)`` either way: a subdomain's
+    sides shared with a neighbour), then adds interior nodes.
 
     A 30-degree wedge: the corner's triangle, a rung (radius ratio 0.641) and two more.
 
@@ -245,7 +253,8 @@ def split_spanning(mesh: Mesh, rounds: int = ROUNDS, *, sides: bool = True) -> M
     """
     if not sides:
         return _passes(mesh, rounds, (_split_round,))[0]
-    both, split_sides = _passes(mesh, rounds, (_split_sides_round, _split_round))
+    sides_round = functools.partial(_split_sides_round, held=frozenset(held))
+    both, split_sides = _passes(mesh, rounds, (sides_round, _split_round))
     if not split_sides:
         return both
     plain, _ = _passes(mesh, rounds, (_split_round,))
@@ -280,7 +289,9 @@ def _figures(mesh: Mesh) -> tuple[float, float]:
     return round(min(float(min_angle(p, tri).min()), 30.0), 1), float(radius_ratio(p, tri).min())
 
 
-def _split_sides_round(mesh: Mesh) -> Mesh | None:
+def _split_sides_round(
+    mesh: Mesh, held: frozenset[tuple[float, float, float, float]] = frozenset()
+) -> Mesh | None:
     """A node on a boundary side of a small cavity (as in :func:`_cavities`) around each
     triangle that has all three nodes on the boundary and an angle below
     :data:`EDGE_SPLIT_BELOW`, joined to the cavity's corners, where that lifts the cavity's
@@ -291,7 +302,7 @@ def _split_sides_round(mesh: Mesh) -> Mesh | None:
     vertices closer than the size, a short segment beside a long one) the corner's triangle has
     a second angle below the corner's own: a node on the longer leg at the shorter leg's
     distance makes it isosceles. The node stays on the input segment, so the mesh still covers
-    the region exactly.
+    the region exactly. Sides in ``held`` (by their ends' coordinates) are never split.
     """
     if mesh.n_triangles == 0:
         return None
@@ -303,7 +314,11 @@ def _split_sides_round(mesh: Mesh) -> Mesh | None:
     if candidates.size == 0:
         return None
     nbr = _neighbours(tri)
-    boundary = set(map(tuple, mesh.boundary_edges.tolist()))
+    boundary = {
+        (a, b)
+        for a, b in mesh.boundary_edges.tolist()
+        if (*p[a].tolist(), *p[b].tolist()) not in held
+    }
     used = np.zeros(len(tri), dtype=bool)
     new_points: list[FloatArray] = []
     fans: list[IntArray] = []

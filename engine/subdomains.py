@@ -283,7 +283,8 @@ def mesh_subdomains(
     ]
     timings = {"boundary": time.perf_counter() - started, "mesh": 0.0}
     meshes = []
-    nodes = _keep_whole(_pieces(shared))
+    whole = _pieces(shared)
+    nodes = _keep_whole(whole)
     for k, (p, s) in enumerate(zip(split, sizing, strict=True)):
         if stop():
             raise Cancelled("stopped while meshing the subdomains")
@@ -294,7 +295,7 @@ def mesh_subdomains(
             params.relax,
             stop,
             params.max_triangles,
-            split_sides=False,
+            held_sides=whole,
             boundary=nodes,
         )
         meshes.append(got_mesh)
