@@ -117,3 +117,20 @@ def assert_conforming(mesh: Mesh, region: Region) -> None:
 def region_of(rings: Rings) -> Region:
     outer, holes = rings
     return make_region([(outer, holes)])
+
+
+#: A spike's corner (degrees), its legs (in sizes; unequal, so the corner's first nodes sit at
+#: unequal distances on them) and the size.
+SPIKES = st.tuples(
+    st.floats(5.0, 45.0), st.tuples(st.floats(0.3, 2.5), st.floats(0.3, 2.5)), st.floats(0.1, 0.2)
+)
+
+
+def spike_ring(theta: float, legs: tuple[float, float], size: float) -> list[list[float]]:
+    """A ``theta``-degree spike at the origin whose legs, ``legs`` times ``size`` long, turn
+    away at input vertices into a body reaching x = 1 (y from -0.5 to 0.5)."""
+    half = np.radians(theta) / 2
+    a = legs[0] * size * np.array([np.cos(half), np.sin(half)])
+    b = legs[1] * size * np.array([np.cos(half), -np.sin(half)])
+    ring = [[0.0, 0.0], b, [b[0], -0.5], [1.0, -0.5], [1.0, 0.5], [a[0], 0.5], a]
+    return np.asarray(ring, dtype=float).tolist()

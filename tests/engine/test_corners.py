@@ -16,7 +16,7 @@ from engine import (
     triangle_quality,
 )
 
-from .regions import assert_conforming
+from .regions import SPIKES, assert_conforming, spike_ring
 
 
 def _wedge(theta: float, turn: float, side: float, size: float) -> Mesh:
@@ -87,13 +87,9 @@ def test_wedges_that_missed_their_corner_bound(
 
 
 def _spike(theta: float, legs: tuple[float, float], size: float) -> Mesh:
-    """The default pipeline's mesh of a ``theta``-degree spike whose legs, ``legs`` times the
-    size long (unequal: the corner's first nodes then sit at unequal distances on them), turn
-    away at input vertices into a 1-by-1 body; checked conforming."""
-    half = np.radians(theta) / 2
-    a = legs[0] * size * np.array([np.cos(half), np.sin(half)])
-    b = legs[1] * size * np.array([np.cos(half), -np.sin(half)])
-    ring = np.array([[0.0, 0.0], b, [b[0], -0.5], [1.0, -0.5], [1.0, 0.5], [a[0], 0.5], a])
+    """The default pipeline's mesh of :func:`tests.engine.regions.spike_ring`; checked
+    conforming."""
+    ring = spike_ring(theta, legs, size)
     region = make_region([(ring, [])])
     params = PipelineParams(SizingParams(size=size))
     mesh = mesh_then_smooth(region, params, np.random.default_rng(0)).smoothed.mesh
@@ -102,13 +98,9 @@ def _spike(theta: float, legs: tuple[float, float], size: float) -> Mesh:
 
 
 @settings(max_examples=25, deadline=None)
-@given(
-    theta=st.floats(5.0, 45.0),
-    legs=st.tuples(st.floats(0.3, 2.5), st.floats(0.3, 2.5)),
-    size=st.floats(0.1, 0.2),
-)
+@given(spike=SPIKES)
 def test_input_vertices_near_a_corner_keep_its_bound(
-    theta: float, legs: tuple[float, float], size: float
+    spike: tuple[float, tuple[float, float], float],
 ) -> None:
     # Input vertices closer to a corner than its size, at unequal distances on its legs, left
     # the corner's triangle with a second angle below the corner's: 7.3 degrees at an
@@ -117,5 +109,6 @@ def test_input_vertices_near_a_corner_keep_its_bound(
     # a degree on 37, by up to 12.7 degrees; now on 2 (and on 4 of 300 more at 5-45 degrees),
     # by up to 1.9 (the corner's second triangle needs a node off the boundary), hence the
     # tolerance.
-    mesh = _spike(theta, legs, size)
+    theta = spike[0]
+    mesh = _spike(*spike)
     assert triangle_quality(mesh).min_angle.min() >= min(theta, 30.0) - 2.5

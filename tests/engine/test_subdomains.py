@@ -26,6 +26,8 @@ from engine.quality import min_angle
 from engine.subdomains import mesh_subdomains
 from engine.tags import interface_edges
 
+from .regions import SPIKES, spike_ring
+
 LEFT = ([[0, 0], [1, 0], [1, 1], [0, 1]], [])
 #: Shares part of LEFT's right edge: a T-junction at (1, 0.5) and (1, 1).
 RIGHT = ([[1, 0.5], [2, 0.5], [2, 1.5], [1, 1.5]], [])
@@ -451,23 +453,17 @@ def test_digitised_constraint_lines_are_thinned_with_resampled_subdomains() -> N
 
 
 @settings(max_examples=12, deadline=None)
-@given(
-    theta=st.floats(5.0, 45.0),
-    legs=st.tuples(st.floats(0.3, 2.5), st.floats(0.3, 2.5)),
-    size=st.floats(0.1, 0.2),
-)
+@given(spike=SPIKES)
 def test_a_subdomain_keeps_the_corner_bound_on_its_own_sides(
-    theta: float, legs: tuple[float, float], size: float
+    spike: tuple[float, tuple[float, float], float],
 ) -> None:
     # A spike whose legs turn away at input vertices closer to the corner than the size, beside
     # a neighbour sharing its right side. Side splits were off for every subdomain (a shared
     # side must get the same nodes on both sides), so the corner's triangle kept a second angle
     # below the corner's: 19.0 degrees at a 30.5-degree spike, 17.7 at 29.6. Only the shared
     # sides are held now; the tolerance is the single region's (tests/engine/test_corners.py).
-    half = np.radians(theta) / 2
-    a = legs[0] * size * np.array([np.cos(half), np.sin(half)])
-    b = legs[1] * size * np.array([np.cos(half), -np.sin(half)])
-    left = [[0.0, 0.0], b.tolist(), [b[0], -0.5], [1.0, -0.5], [1.0, 0.5], [a[0], 0.5], a.tolist()]
+    theta, _, size = spike
+    left = spike_ring(*spike)
     right = [[1.0, -0.5], [2.0, -0.5], [2.0, 0.5], [1.0, 0.5]]
     sub = mesh_subdomains(
         [(left, []), (right, [])], PipelineParams(SizingParams(size)), sizes=[size, size]
