@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from engine import PipelineParams, SizingParams, SmoothingParams, mesh_then_smooth
@@ -24,20 +24,40 @@ def _undirected(edges: np.ndarray) -> set[tuple[int, int]]:
     return {(int(min(a, b)), int(max(a, b))) for a, b in edges}
 
 
+def _sharp_corners(mesh: Mesh) -> dict[int, float]:
+    """Boundary nodes whose domain angle is under 60 degrees: their angle (degrees)."""
+    sums = np.bincount(mesh.triangles.ravel(), corner_angles(mesh.points, mesh.triangles).ravel())
+    nodes = np.flatnonzero(mesh.boundary_nodes & (sums[: mesh.n_points] < 60.0))
+    return {int(v): float(sums[v]) for v in nodes}
+
+
 def _improving_flips(mesh: Mesh) -> list[tuple[int, int]]:
-    """Interior edges whose flip would raise the worse quality of their pair (brute force)."""
+    """Interior edges whose flip would raise the worse quality of their pair (brute force),
+    except those splitting a corner sharper than 60 degrees below min(corner, 30) and below
+    the pair's smallest angle."""
     tri, pts = mesh.triangles, mesh.points
     _edges, count, edge_of = edge_table(tri)
     q = shape_quality(pts, tri)
+    sharp = _sharp_corners(mesh)
     found = []
     for e in np.flatnonzero(count == 2):
         (t1, k1), (t2, k2) = np.argwhere(edge_of == e)
         c, a, b = tri[t1, k1], tri[t1, (k1 + 1) % 3], tri[t1, (k1 + 2) % 3]
         d = tri[t2, k2]
-        new = shape_quality(pts, np.array([[c, a, d], [d, b, c]])).min()
+        flipped = np.array([[c, a, d], [d, b, c]])
+        new = shape_quality(pts, flipped).min()
         old = min(q[t1], q[t2])
-        if new > 0 and new > old * (1 + 1e-9):
-            found.append((int(a), int(b)))
+        if not (new > 0 and new > old * (1 + 1e-9)):
+            continue
+        before = corner_angles(pts, tri[[t1, t2]]).min()
+        split = corner_angles(pts, flipped)  # c is corner 0 then 2, d corner 2 then 0
+        pieces = {int(c): min(split[0, 0], split[1, 2]), int(d): min(split[0, 2], split[1, 0])}
+        if any(
+            v in sharp and piece < min(sharp[v], 30.0) and piece < before - 1e-9
+            for v, piece in pieces.items()
+        ):
+            continue
+        found.append((int(a), int(b)))
     return found
 
 
@@ -82,6 +102,34 @@ def test_relaxing_before_swapping_moves_only_interior_nodes_and_never_worsens(me
     q_before = shape_quality(mesh.points, mesh.triangles).min()
     assert shape_quality(out.points, out.triangles).min() >= q_before - 1e-12
     assert _improving_flips(out) == []
+
+
+def _corner_pair(corner: float, far: float) -> Mesh:
+    """Two triangles: (0, 1, 2) with a ``corner``-degree apex at node 0 on unit legs, and
+    (3, 2, 1) across side 1-2 whose angles there are ``far`` degrees; every node on the
+    boundary, so node 0's domain angle is ``corner``."""
+    half = np.radians(corner) / 2
+    a, b = np.array([np.cos(half), -np.sin(half)]), np.array([np.cos(half), np.sin(half)])
+    d = 0.5 * (a + b) + [np.sin(half) * np.tan(np.radians(far)), 0.0]
+    return Mesh(np.array([[0.0, 0.0], a, b, d]), np.array([[0, 1, 2], [3, 2, 1]]))
+
+
+@settings(max_examples=60, deadline=None)
+@given(corner=st.floats(5.0, 59.0), far=st.floats(1.0, 80.0))
+@example(corner=56.0, far=30.0)
+def test_swapping_never_splits_a_sharp_corner_below_its_bound(corner: float, far: float) -> None:
+    # Flipping 1-2 to 0-3 halves the corner and can still raise the worse shape quality: a
+    # 56-degree corner with 30-degree angles across became two 28-degree pieces (quality 0.60
+    # -> 0.72), under the bound min(corner, 30) the corner sets, which no smoother can lift.
+    mesh = _corner_pair(corner, far)
+    out = swap_diagonals(mesh)
+    before = corner_angles(mesh.points, mesh.triangles).min()
+    after = corner_angles(out.points, out.triangles).min()
+    assert after >= min(min(corner, 30.0), before) - 1e-9
+    assert (
+        shape_quality(out.points, out.triangles).min()
+        >= shape_quality(mesh.points, mesh.triangles).min()
+    )
 
 
 def test_a_sliver_pair_is_flipped_and_a_dart_is_not() -> None:
