@@ -8,6 +8,7 @@ and a graded field grades it.
 from __future__ import annotations
 
 import math
+from collections.abc import Collection
 from dataclasses import dataclass
 
 import numba as nb
@@ -132,8 +133,11 @@ def discretize(
     field: SizeField,
     progress: ProgressFn | None = None,
     should_stop: StopFn | None = None,
+    held: Collection[tuple[float, float, float, float]] = (),
 ) -> Discretized:
-    """Points and directed edges of the boundary of ``region`` split to ``field``.
+    """Points and directed edges of the boundary of ``region`` split to ``field``; the
+    segments in ``held`` (by their ends' coordinates ``(ax, ay, bx, by)``, either way: a
+    subdomain's pieces of shared edges, split once for both sides) are kept whole.
 
     ``should_stop()`` is polled every ``_POLL`` segments (:class:`Cancelled` when true).
 
@@ -152,6 +156,7 @@ def discretize(
     offset = 0
     total = max(region.n_vertices, 1)
     done = 0
+    held = frozenset(held)
     for r, ring in enumerate(region.rings):
         pieces: list[FloatArray] = []
         n = len(ring)
@@ -165,6 +170,8 @@ def discretize(
             done += 1
             a, b = ring[i], ring[(i + 1) % len(ring)]
             pieces.append(a[None, :])
+            if held and (*a.tolist(), *b.tolist()) in held:
+                continue
             pieces.append(_open_corners(_split(a, b, field), a, b, ratio[i], ratio[(i + 1) % n]))
         pts = np.concatenate(pieces)
         idx = offset + np.arange(len(pts))

@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 
 from .boundary import Region
 from .collapse import collapse_edges
-from .discretize import Discretized, discretize
+from .discretize import discretize
 from .errors import Cancelled, LimitExceeded
 from .estimate import estimate_triangles
 from .fitness import node_fitness
@@ -23,7 +23,7 @@ from .quality import shape_quality, summarize, triangle_quality
 from .relax import relax, relax_mean
 from .resample import resample_region
 from .result import ProgressFn, Result, Snapshot, StopFn
-from .sizing import SizeField, build_size_field
+from .sizing import build_size_field
 from .smoothing import SMOOTHERS, smooth_points
 from .spanning import split_spanning
 from .swap import regularise_valence, swap_diagonals
@@ -159,24 +159,22 @@ def mesh_region(
     progress: ProgressFn | None = None,
     *,
     held_sides: Collection[tuple[float, float, float, float]] = (),
-    boundary: Callable[[Region, SizeField, ProgressFn, StopFn], Discretized] = discretize,
 ) -> tuple[Mesh, dict[str, float]]:
     """Mesh ``region`` (no swapping, no smoothing); returns the mesh and stage timings.
 
     The mesher is the advancing front followed by ``relax_sweeps`` sweeps of constrained
     relaxation, edge collapses where fronts left a node too many
     (:func:`engine.collapse.collapse_edges`), a node in each wedge-spanning triangle where
-    that helps (:func:`engine.spanning.split_spanning`, which may also split boundary sides,
-    except those in ``held_sides``, by their ends' coordinates: a subdomain's sides shared with
-    a neighbour) and relaxation again (0 gives the raw front).
+    that helps (:func:`engine.spanning.split_spanning`, which may also split boundary sides)
+    and relaxation again (0 gives the raw front).
     Raises :class:`LimitExceeded` when the estimated (or, while meshing, the actual) triangle
     count is over ``max_triangles``; every stage polls ``should_stop`` and reports ``progress``
     (stages ``sizing``, ``estimate``, ``discretize``, ``front``, ``relax``, ``collapse``).
     With ``sizing.resample`` the rings are resampled first (:mod:`engine.resample`), so the
-    field and the estimate see the resampled boundary. ``boundary`` places the boundary nodes
-    (:func:`engine.discretize.discretize`; subdomains keep the pieces of their shared edges,
-    split once for both sides, whole that way): no later stage removes or moves a boundary
-    node, and only the side splits add one, on a boundary segment not in ``held_sides``.
+    field and the estimate see the resampled boundary. No stage splits a boundary segment in
+    ``held_sides`` (by its ends' coordinates ``(ax, ay, bx, by)``, either way: a subdomain's
+    pieces of shared edges, split once for both sides), and after the discretisation no
+    stage removes or moves a boundary node: only the side splits add one.
     """
     progress = progress or _no_progress
     should_stop = should_stop or _never
@@ -194,7 +192,7 @@ def mesh_region(
             limit=max_triangles,
             estimate=estimate,
         )
-    nodes = boundary(region, field, progress, should_stop)
+    nodes = discretize(region, field, progress, should_stop, held=held_sides)
     t1 = time.perf_counter()
     progress("front", 0.0)
     front = advance_front(nodes, field, should_stop, max_triangles=max_triangles)

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import itertools
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -47,7 +47,6 @@ from .constraints import (
     plain_geometries,
     split_segment,
 )
-from .discretize import Discretized, discretize
 from .errors import Cancelled, InvalidBoundary, MeshingError
 from .mesh import Mesh, validate_mesh
 from .params import PipelineParams, SizingParams
@@ -133,40 +132,6 @@ def _with_shared(
     return np.concatenate(pieces)
 
 
-def _keep_whole(
-    whole: set[tuple[float, float, float, float]],
-) -> Callable[[Region, SizeField, ProgressFn, StopFn], Discretized]:
-    """A :func:`engine.discretize.discretize` that leaves the segments of ``whole`` (by their
-    ends, either way) unsplit: the pieces of shared segments, split once for both sides, that
-    a side's own field must not split again."""
-
-    def nodes(region: Region, field: SizeField, progress: ProgressFn, stop: StopFn) -> Discretized:
-        own = discretize(region, field, progress, stop)
-        rings = []
-        for r, ring in enumerate(region.rings):
-            pts = own.points[own.ring_start[r] : own.ring_start[r + 1]]
-            # Every ring vertex is kept, in order: the points between two are that segment's.
-            at = np.append(np.flatnonzero(_rows_in(pts, ring)), len(pts))
-            keep = [
-                np.arange(at[k], at[k] + 1 if _key(a, b) in whole else at[k + 1])
-                for k, (a, b) in enumerate(zip(ring, np.roll(ring, -1, axis=0), strict=True))
-            ]
-            rings.append(pts[np.concatenate(keep)])
-        points = np.concatenate(rings)
-        start = np.cumsum([0] + [len(r) for r in rings])
-        idx = [np.arange(a, b) for a, b in itertools.pairwise(start)]
-        edges = [np.stack([i, np.roll(i, -1)], axis=1) for i in idx]
-        return Discretized(
-            points=points,
-            edges=np.concatenate(edges).astype(np.int64),
-            ring_of_edge=np.repeat(np.arange(len(rings)), np.diff(start)).astype(np.int64),
-            ring_start=start.astype(np.int64),
-            sizes=field(points),
-        )
-
-    return nodes
-
-
 def _pieces(
     shared: Mapping[tuple[float, float, float, float], FloatArray],
 ) -> set[tuple[float, float, float, float]]:
@@ -177,11 +142,6 @@ def _pieces(
         for u, v in itertools.pairwise([(a0, a1), *map(tuple, pts.tolist()), (b0, b1)])
         for key in (u + v, v + u)
     }
-
-
-def _rows_in(points: FloatArray, rows: FloatArray) -> BoolArray:
-    """Which of ``points`` are (exactly) one of ``rows``."""
-    return np.isin(points[:, 0] + 1j * points[:, 1], rows[:, 0] + 1j * rows[:, 1])
 
 
 def _sizing(
@@ -284,7 +244,6 @@ def mesh_subdomains(
     timings = {"boundary": time.perf_counter() - started, "mesh": 0.0}
     meshes = []
     whole = _pieces(shared)
-    nodes = _keep_whole(whole)
     for k, (p, s) in enumerate(zip(split, sizing, strict=True)):
         if stop():
             raise Cancelled("stopped while meshing the subdomains")
@@ -296,7 +255,6 @@ def mesh_subdomains(
             stop,
             params.max_triangles,
             held_sides=whole,
-            boundary=nodes,
         )
         meshes.append(got_mesh)
         for stage, seconds in took.items():
