@@ -10,8 +10,9 @@ import logging
 from collections.abc import Callable, Coroutine, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass
 from functools import cache
-from typing import Any
+from typing import Any, Generic, TypeVar, cast
 
 import anyio.to_thread
 import numpy as np
@@ -24,7 +25,7 @@ from starlette.exceptions import HTTPException
 from starlette.middleware.trustedhost import TrustedHostMiddleware
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from .problems import Problem, response_for
+from .problems import Problem, problem_for, response_for
 
 log = logging.getLogger("evomesh.service")
 
@@ -188,6 +189,37 @@ def problem_fields(exc: Problem) -> tuple[int, str, dict[str, Any]]:
         **exc.extra,
     }
     return exc.status, exc.detail, fields
+
+
+T = TypeVar("T")
+
+
+@dataclass(frozen=True)
+class PoolAdmission(Generic[T]):
+    """What a :data:`Then` step admitted in the body pool: its value, or the problem that
+    refuses the request (as :func:`problem_fields`' tuple, which pickles)."""
+
+    value: T | None = None
+    problem: tuple[int, str, dict[str, Any]] | None = None
+
+    @classmethod
+    def of(cls, admit: Callable[[], T]) -> PoolAdmission[T]:
+        """``admit()``'s value, or the problem its error is answered with; an error answered
+        with a 5xx is a bug and raised, as it would be in place."""
+        try:
+            return cls(admit())
+        except Exception as exc:
+            problem = problem_for(exc)
+            if problem.status >= 500:
+                raise
+            return cls(problem=problem_fields(problem))
+
+    def result(self) -> T:
+        """The value, or the problem raised (where admitting in place would raise it)."""
+        if self.problem is not None:
+            status, detail, fields = self.problem
+            raise Problem(status, detail, **fields)
+        return cast(T, self.value)
 
 
 def _validate_in_child(

@@ -4,7 +4,6 @@ defaults), created together and followed together."""
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
 from functools import partial
 from typing import Any, Literal
 
@@ -16,8 +15,8 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 from ..deps import ManagerDep, OwnerDep, SettingsDep, require_api_key
 from ..jobs.manager import JobManager
 from ..jobs.store import BatchRecord
-from ..middleware import JsonBodyRoute, Then, problem_fields
-from ..problems import Problem, problem_for
+from ..middleware import JsonBodyRoute, PoolAdmission, Then
+from ..problems import Problem
 from ..processes import Prepared, Process, Where, inputs_at
 from ..processes.base import prepare_stored
 from ..schemas import BatchInfo
@@ -154,21 +153,9 @@ def _prepare_all(body: BatchRequest, process: Process, settings: Settings) -> li
     return prepared
 
 
-@dataclass(frozen=True)
-class BatchAdmission:
-    """A large batch's admission, made in a body pool process: the process id and every
-    item prepared (inputs encoded), or the problem that refuses the batch."""
-
-    process: str
-    prepared: tuple[Prepared, ...] = ()
-    problem: tuple[int, str, dict[str, Any]] | None = None
-
-    def result(self) -> list[Prepared]:
-        """The prepared items, or the problem raised (where preparing in place would raise it)."""
-        if self.problem is not None:
-            status, detail, fields = self.problem
-            raise Problem(status, detail, **fields)
-        return list(self.prepared)
+#: A large batch's admission: the process id and every item prepared (inputs encoded), or the
+#: problem that refuses the batch.
+BatchAdmission = PoolAdmission[tuple[str, list[Prepared]]]
 
 
 def admit_batch(
@@ -177,17 +164,13 @@ def admit_batch(
     """Run in a body pool process after validation: the whole admission of a batch (its limits,
     every item parsed, checked, estimated and encoded as stored), so the event loop only hands
     bytes on. Returns the request without its items (the handler reads only its process and
-    count) and the :class:`BatchAdmission`."""
-    try:
+    count) and the :data:`BatchAdmission`."""
+
+    def admit() -> tuple[str, list[Prepared]]:
         process = _check(body, processes, settings)
-        prepared = _prepare_all(body, process, settings)
-    except Exception as exc:
-        problem = problem_for(exc)
-        if problem.status >= 500:
-            raise  # a bug: answered as one, as in place
-        admission = BatchAdmission(body.process, problem=problem_fields(problem))
-    else:
-        admission = BatchAdmission(process.id, tuple(prepared))
+        return process.id, _prepare_all(body, process, settings)
+
+    admission = BatchAdmission.of(admit)
     # The items stay here: pickling them back would cost what the pool saved the loop. (An
     # empty list of requests, not none: the model's one-form check runs again on the loop.)
     envelope = BatchRequest.model_construct(
@@ -215,8 +198,8 @@ async def create_batch(
 ) -> JSONResponse:
     admitted: BatchAdmission | None = getattr(request.state, "prepared", None)
     if admitted is not None:  # a large body, admitted in the body pool
-        prepared = admitted.result()
-        process = manager.processes[admitted.process]
+        process_id, prepared = admitted.result()
+        process = manager.processes[process_id]
     else:
         process = _check(body, manager.processes, settings)
         # refuse early, before the work of preparing every item

@@ -2,7 +2,6 @@
 default, synchronous with ``Prefer: wait=N``)."""
 
 from collections.abc import Callable
-from dataclasses import dataclass
 from functools import partial
 from typing import Annotated, Any, TypeVar
 
@@ -16,8 +15,8 @@ from ..formats import FORMATS
 from ..inputs import ExecuteRequest
 from ..jobs.manager import request_digest
 from ..jobs.store import IdempotencyConflict, JobStatus
-from ..middleware import JsonBodyRoute, Then, problem_fields
-from ..problems import Problem, problem_for
+from ..middleware import JsonBodyRoute, PoolAdmission, Then
+from ..problems import Problem
 from ..processes import PROCESSES, Prepared, Process, inputs_at
 from ..processes.base import prepare_stored
 from ..schemas import ProcessDescription, ProcessList, StatusInfo
@@ -152,22 +151,9 @@ _EXECUTE_RESPONSES: dict[int | str, dict[str, Any]] = {
 }
 
 
-@dataclass(frozen=True)
-class Admission:
-    """A large body's admission, made in a body pool process: the prepared job or the problem
-    that refuses it, and the request's digest (when an Idempotency-Key asks for one)."""
-
-    prepared: Prepared | None
-    problem: tuple[int, str, dict[str, Any]] | None = None
-    digest: str | None = None
-
-    def result(self) -> Prepared:
-        """The prepared job, or the problem raised (where preparing in place would raise it)."""
-        if self.problem is not None:
-            status, detail, fields = self.problem
-            raise Problem(status, detail, **fields)
-        assert self.prepared is not None
-        return self.prepared
+#: A large execute request's admission: the prepared job and the request's digest (when an
+#: Idempotency-Key asks for one), or the problem that refuses it.
+Admission = PoolAdmission[tuple[Prepared, str | None]]
 
 
 def admit_body(
@@ -180,19 +166,16 @@ def admit_body(
     """Run in a body pool process after validation: the whole admission of an execute request
     (parse, check the limits, estimate, encode the inputs as stored), so the event loop only
     hands bytes on. Returns the request without its inputs (all the handler reads of it) and
-    the :class:`Admission`."""
-    try:
+    the :data:`Admission`."""
+
+    def admit() -> tuple[Prepared, str | None]:
         prepared = prepare_stored(prepare, body.inputs, settings, inputs_at("/inputs"))
-    except Exception as exc:
-        problem = problem_for(exc)
-        if problem.status >= 500:
-            raise  # a bug: answered as one, as in place
-        admission = Admission(None, problem_fields(problem))
-    else:
         # The validated request (its depth bounded by the body reader), not the raw bytes: the
         # same JSON value in another key order is the same request.
         hashed = request_digest(process_id, body.model_dump(mode="json")) if digest else None
-        admission = Admission(prepared, digest=hashed)
+        return prepared, hashed
+
+    admission = Admission.of(admit)
     # The inputs stay here: pickling them back would cost what the pool saved the loop.
     envelope = type(body).model_construct(
         inputs=None,  # type: ignore[arg-type]
@@ -238,7 +221,7 @@ def _execute_route(router: APIRouter, process: Process) -> None:
             callbacks.check(request_body.subscriber)
         admitted: Admission | None = getattr(request.state, "prepared", None)
         if admitted is not None:  # a large body, admitted in the body pool
-            prepared, digest = admitted.result(), admitted.digest
+            prepared, digest = admitted.result()
         else:
             prepared = await off_loop(
                 prepare_stored,
