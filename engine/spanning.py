@@ -17,7 +17,6 @@ swapping would not flip a side of it to join the node to a corner beyond.
 from __future__ import annotations
 
 import functools
-import itertools
 import math
 from collections.abc import Callable, Collection
 
@@ -27,7 +26,7 @@ from numpy.typing import NDArray
 
 from .mesh import Mesh
 from .quality import min_angle, radius_ratio, shape_quality
-from .relax import radius_ratio_xy
+from .sides import _HALVINGS, _THIRTY, _cavities, _fan, split_sides_round
 from .swap import _neighbours
 
 __all__ = ["split_spanning"]
@@ -43,42 +42,6 @@ GAIN = 0.02
 ROUNDS = 3
 #: Swapping's margin (:data:`engine.swap._MARGIN` or more): flips it would make.
 _SWAP_MARGIN = 1e-9
-#: Compass-search halvings when placing the new node.
-_HALVINGS = 14
-#: Triangles with all three nodes on the boundary and a smaller angle (degrees) than this are
-#: offered a node on one of their boundary sides.
-EDGE_SPLIT_BELOW = 30.0
-#: A boundary side is split only when the cavity's smallest angle gains this much (relative) or
-#: :data:`EDGE_GAIN_DEG` degrees, whichever is less.
-EDGE_GAIN = 0.05
-EDGE_GAIN_DEG = 0.5
-#: Evenly spaced trial positions along a boundary side before refining the best.
-_EDGE_SAMPLES = 32
-_THIRTY = math.radians(30.0)
-
-
-@nb.njit(cache=True, inline="always")
-def _fan(
-    p: FloatArray, ring: IntArray, x: float, y: float, sides: int
-) -> tuple[float, float, float]:
-    """Worst and mean radius ratio (negative when inverted) and the smallest angle (radians)
-    of the triangles joining (x, y) to the first ``sides`` sides of ``ring`` (all of them
-    for a closed ring, one fewer for a chain whose ends (x, y) lies between)."""
-    worst, total, smallest = np.inf, 0.0, np.inf
-    k = ring.shape[0]
-    for i in range(sides):
-        ax, ay = p[ring[i], 0], p[ring[i], 1]
-        bx, by = p[ring[(i + 1) % k], 0], p[ring[(i + 1) % k], 1]
-        q = radius_ratio_xy(ax, ay, bx, by, x, y)
-        a = math.hypot(bx - ax, by - ay)
-        b = math.hypot(x - bx, y - by)
-        c = math.hypot(ax - x, ay - y)
-        worst, total = min(worst, q), total + q
-        # The smallest angle faces the shortest side.
-        lo, m1, m2 = (a, b, c) if a <= min(b, c) else ((b, a, c) if b <= c else (c, a, b))
-        cos = (m1 * m1 + m2 * m2 - lo * lo) / max(2.0 * m1 * m2, 1e-300)
-        smallest = min(smallest, math.acos(min(max(cos, -1.0), 1.0)))
-    return worst, total / sides, smallest
 
 
 @nb.njit(cache=True)
@@ -108,53 +71,6 @@ def _place(
                     x, y, worst, mean, smallest, moved = cx, cy, w, m, a, True
         step *= 0.5
     return x, y, worst, mean, smallest
-
-
-@nb.njit(cache=True)
-def _place_on_side(
-    p: FloatArray, chain: IntArray
-) -> tuple[float, float, float]:  # pragma: no cover
-    """Where on the boundary side from ``chain``'s last node to its first a node joined to
-    each side of ``chain`` makes the fan's smallest angle largest: (the fraction along that
-    side, the fan's worst radius ratio and its smallest angle; -inf when no fan is valid)."""
-    k = chain.shape[0]
-    ax, ay = p[chain[k - 1], 0], p[chain[k - 1], 1]
-    dx, dy = p[chain[0], 0] - ax, p[chain[0], 1] - ay
-    at, worst, smallest = 0.5, -np.inf, -np.inf
-    for i in range(1, _EDGE_SAMPLES):
-        s = i / _EDGE_SAMPLES
-        w, _, a = _fan(p, chain, ax + s * dx, ay + s * dy, k - 1)
-        if w > 0.0 and a > smallest:
-            at, worst, smallest = s, w, a
-    step = 0.5 / _EDGE_SAMPLES
-    for _ in range(_HALVINGS):
-        for s in (at - step, at + step):
-            if 0.0 < s < 1.0:
-                w, _, a = _fan(p, chain, ax + s * dx, ay + s * dy, k - 1)
-                if w > 0.0 and a > smallest:
-                    at, worst, smallest = s, w, a
-        step *= 0.5
-    return at, worst, smallest
-
-
-def _cavities(tri: IntArray, nbr: IntArray, t: int) -> list[tuple[list[int], list[int]]]:
-    """The cavities offered around triangle ``t``: (triangles, corners counter-clockwise)."""
-    sides = [k for k in range(3) if nbr[t, k] >= 0]
-    options: list[list[int]] = [[]] + [[k] for k in sides] + ([sides] if len(sides) > 1 else [])
-    out = []
-    for chosen in options:
-        ring: list[int] = []
-        tris = [t]
-        for j in range(3):
-            ring.append(int(tri[t, j]))
-            k = (j + 2) % 3  # the side from corner j to corner j + 1
-            if k in chosen:
-                n = int(nbr[t, k])
-                apex = [int(v) for v in tri[n] if v != tri[t, j] and v != tri[t, (j + 1) % 3]]
-                ring.append(apex[0])
-                tris.append(n)
-        out.append((tris, ring))
-    return out
 
 
 def _chains(tri: IntArray, nbr: IntArray, t: int) -> list[tuple[list[int], list[int]]]:
@@ -237,7 +153,7 @@ def split_spanning(
 
     Up to ``rounds`` passes: a cavity is taken by one triangle a pass, so a neighbour whose best
     cavity overlapped it tries again around the new node. Each pass first splits boundary
-    sides (:func:`_split_sides_round`; none when ``sides`` is false, and never a side in
+    sides (:func:`split_sides_round`; none when ``sides`` is false, and never a side in
     ``held``, given by its ends' coordinates ``(ax, ay, bx, by)`` either way: a subdomain's
     sides shared with a neighbour), then adds interior nodes.
 
@@ -253,7 +169,7 @@ def split_spanning(
     """
     if not sides:
         return _passes(mesh, rounds, (_split_round,))[0]
-    sides_round = functools.partial(_split_sides_round, held=frozenset(held))
+    sides_round = functools.partial(split_sides_round, held=frozenset(held))
     both, split_sides = _passes(mesh, rounds, (sides_round, _split_round))
     if not split_sides:
         return both
@@ -287,72 +203,6 @@ def _figures(mesh: Mesh) -> tuple[float, float]:
     """The mesh's smallest angle (degrees, up to 30, to a tenth) and worst radius ratio."""
     p, tri = mesh.points, mesh.triangles
     return round(min(float(min_angle(p, tri).min()), 30.0), 1), float(radius_ratio(p, tri).min())
-
-
-def _split_sides_round(
-    mesh: Mesh, held: frozenset[tuple[float, float, float, float]] = frozenset()
-) -> Mesh | None:
-    """A node on a boundary side of a small cavity (as in :func:`_cavities`) around each
-    triangle that has all three nodes on the boundary and an angle below
-    :data:`EDGE_SPLIT_BELOW`, joined to the cavity's corners, where that lifts the cavity's
-    smallest angle by :data:`EDGE_GAIN` (or :data:`EDGE_GAIN_DEG`) without lowering its worst
-    radius ratio; None when nothing was split.
-
-    Near a corner whose first boundary nodes sit at unequal distances on its two legs (input
-    vertices closer than the size, a short segment beside a long one) the corner's triangle has
-    a second angle below the corner's own: a node on the longer leg at the shorter leg's
-    distance makes it isosceles. The node stays on the input segment, so the mesh still covers
-    the region exactly. Sides in ``held`` (by their ends' coordinates) are never split.
-    """
-    if mesh.n_triangles == 0:
-        return None
-    tri, p = mesh.triangles, mesh.points
-    spanning = mesh.boundary_nodes[tri].all(axis=1)
-    angle = np.full(len(tri), np.inf)
-    angle[spanning] = min_angle(p, tri[spanning])
-    candidates = np.flatnonzero(angle < EDGE_SPLIT_BELOW)
-    if candidates.size == 0:
-        return None
-    nbr = _neighbours(tri)
-    boundary = {
-        (a, b)
-        for a, b in mesh.boundary_edges.tolist()
-        if (*p[a].tolist(), *p[b].tolist()) not in held
-    }
-    used = np.zeros(len(tri), dtype=bool)
-    new_points: list[FloatArray] = []
-    fans: list[IntArray] = []
-    for t in candidates[np.argsort(angle[candidates], kind="stable")].tolist():
-        best: tuple[float, FloatArray, list[int], list[int]] | None = None
-        for tris, ring in _cavities(tri, nbr, t):
-            if used[tris].any():
-                continue
-            old = tri[tris]
-            least = float(min_angle(p, old).min())
-            least += min(least * EDGE_GAIN, EDGE_GAIN_DEG)
-            floor = float(radius_ratio(p, old).min())
-            for a in range(len(ring)):
-                if (ring[a], ring[(a + 1) % len(ring)]) not in boundary:
-                    continue
-                chain = ring[a + 1 :] + ring[: a + 1]  # from the side's end round to its start
-                at, worst, smallest = _place_on_side(p, np.asarray(chain, dtype=np.int64))
-                smallest = math.degrees(smallest)
-                if smallest >= least and worst >= floor and (best is None or smallest > best[0]):
-                    xy = p[chain[-1]] + at * (p[chain[0]] - p[chain[-1]])
-                    best = (smallest, xy, tris, chain)
-        if best is None:
-            continue
-        _, xy, tris, chain = best
-        used[tris] = True
-        node = mesh.n_points + len(new_points)
-        new_points.append(xy)
-        fans.append(np.array([[a, b, node] for a, b in itertools.pairwise(chain)]))
-    if not fans:
-        return None
-    return Mesh(
-        np.concatenate([p, np.asarray(new_points)]),
-        np.concatenate([tri[~used], *fans]).astype(np.int64),
-    )
 
 
 def _split_round(mesh: Mesh) -> Mesh | None:

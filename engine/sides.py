@@ -1,0 +1,346 @@
+"""Boundary side splits: a node (or one on each of two sides) on the boundary beside a flat
+triangle whose corners are all fixed.
+
+Near a corner whose first boundary nodes sit at unequal distances on its two legs (input
+vertices closer than the size, a short segment beside a long one), the triangles next to the
+corner's own join a rung to a far leg node and keep an angle below the corner's: nothing can
+move their nodes. Each triangle with all three nodes on the boundary and an angle below
+:data:`EDGE_SPLIT_BELOW` is offered, in a small cavity around it (:func:`_cavities`), a node on
+one of the cavity's boundary sides joined to its corners, or where that does not reach the cap,
+a node on each of two of its boundary sides with the polygon they make triangulated afresh. The
+nodes stay on the input segments, so the mesh still covers the region exactly.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numba as nb
+import numpy as np
+from numpy.typing import NDArray
+
+from .mesh import Mesh
+from .quality import min_angle, radius_ratio
+from .relax import radius_ratio_xy
+from .swap import _neighbours
+
+__all__ = ["EDGE_SPLIT_BELOW", "split_sides_round"]
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+#: Compass-search halvings when placing the new node.
+_HALVINGS = 14
+#: Triangles with all three nodes on the boundary and a smaller angle (degrees) than this are
+#: offered a node on one of their boundary sides.
+EDGE_SPLIT_BELOW = 30.0
+#: A boundary side is split only when the cavity's smallest angle gains this much (relative) or
+#: :data:`EDGE_GAIN_DEG` degrees, whichever is less.
+EDGE_GAIN = 0.05
+EDGE_GAIN_DEG = 0.5
+#: Evenly spaced trial positions along a boundary side before refining the best.
+_EDGE_SAMPLES = 32
+#: Trial fractions along each of two boundary sides (:func:`_place_on_two_sides`).
+_PAIR_SAMPLES = 8
+#: Weight of the capped smallest angle (radians) against the worst radius ratio when two nodes
+#: on boundary sides are placed and their polygon triangulated: the angle first.
+_ANGLE_WEIGHT = 1000.0
+_THIRTY = math.radians(30.0)
+
+
+@nb.njit(cache=True, inline="always")
+def _fan(
+    p: FloatArray, ring: IntArray, x: float, y: float, sides: int
+) -> tuple[float, float, float]:
+    """Worst and mean radius ratio (negative when inverted) and the smallest angle (radians)
+    of the triangles joining (x, y) to the first ``sides`` sides of ``ring`` (all of them
+    for a closed ring, one fewer for a chain whose ends (x, y) lies between)."""
+    worst, total, smallest = np.inf, 0.0, np.inf
+    k = ring.shape[0]
+    for i in range(sides):
+        ax, ay = p[ring[i], 0], p[ring[i], 1]
+        bx, by = p[ring[(i + 1) % k], 0], p[ring[(i + 1) % k], 1]
+        q = radius_ratio_xy(ax, ay, bx, by, x, y)
+        a = math.hypot(bx - ax, by - ay)
+        b = math.hypot(x - bx, y - by)
+        c = math.hypot(ax - x, ay - y)
+        worst, total = min(worst, q), total + q
+        # The smallest angle faces the shortest side.
+        lo, m1, m2 = (a, b, c) if a <= min(b, c) else ((b, a, c) if b <= c else (c, a, b))
+        cos = (m1 * m1 + m2 * m2 - lo * lo) / max(2.0 * m1 * m2, 1e-300)
+        smallest = min(smallest, math.acos(min(max(cos, -1.0), 1.0)))
+    return worst, total / sides, smallest
+
+
+@nb.njit(cache=True)
+def _place_on_side(
+    p: FloatArray, chain: IntArray
+) -> tuple[float, float, float]:  # pragma: no cover
+    """Where on the boundary side from ``chain``'s last node to its first a node joined to
+    each side of ``chain`` makes the fan's smallest angle largest: (the fraction along that
+    side, the fan's worst radius ratio and its smallest angle; -inf when no fan is valid)."""
+    k = chain.shape[0]
+    ax, ay = p[chain[k - 1], 0], p[chain[k - 1], 1]
+    dx, dy = p[chain[0], 0] - ax, p[chain[0], 1] - ay
+    at, worst, smallest = 0.5, -np.inf, -np.inf
+    for i in range(1, _EDGE_SAMPLES):
+        s = i / _EDGE_SAMPLES
+        w, _, a = _fan(p, chain, ax + s * dx, ay + s * dy, k - 1)
+        if w > 0.0 and a > smallest:
+            at, worst, smallest = s, w, a
+    step = 0.5 / _EDGE_SAMPLES
+    for _ in range(_HALVINGS):
+        for s in (at - step, at + step):
+            if 0.0 < s < 1.0:
+                w, _, a = _fan(p, chain, ax + s * dx, ay + s * dy, k - 1)
+                if w > 0.0 and a > smallest:
+                    at, worst, smallest = s, w, a
+        step *= 0.5
+    return at, worst, smallest
+
+
+@nb.njit(cache=True)
+def _score(poly: FloatArray, i: int, m: int, j: int) -> float:  # pragma: no cover - compiled
+    """How triangle (i, m, j) of the polygon ``poly`` serves a triangulation: its smallest
+    angle up to 30 degrees first, its radius ratio second; -inf when it is not counter-clockwise
+    or holds another corner of the polygon."""
+    ax, ay, bx, by = poly[i, 0], poly[i, 1], poly[m, 0], poly[m, 1]
+    cx, cy = poly[j, 0], poly[j, 1]
+    q = radius_ratio_xy(ax, ay, bx, by, cx, cy)
+    if q <= 0.0:
+        return -np.inf
+    for w in range(poly.shape[0]):
+        if w in (i, m, j):
+            continue
+        x, y = poly[w, 0], poly[w, 1]
+        d1 = (bx - ax) * (y - ay) - (by - ay) * (x - ax)
+        d2 = (cx - bx) * (y - by) - (cy - by) * (x - bx)
+        d3 = (ax - cx) * (y - cy) - (ay - cy) * (x - cx)
+        if d1 > 0.0 and d2 > 0.0 and d3 > 0.0:
+            return -np.inf
+    a = math.hypot(cx - bx, cy - by)
+    b = math.hypot(ax - cx, ay - cy)
+    c = math.hypot(bx - ax, by - ay)
+    lo, m1, m2 = (a, b, c) if a <= min(b, c) else ((b, a, c) if b <= c else (c, a, b))
+    cos = (m1 * m1 + m2 * m2 - lo * lo) / max(2.0 * m1 * m2, 1e-300)
+    angle = math.acos(min(max(cos, -1.0), 1.0))
+    return _ANGLE_WEIGHT * min(angle, _THIRTY) + q
+
+
+@nb.njit(cache=True)
+def _triangulate(poly: FloatArray, choice: IntArray) -> float:  # pragma: no cover - compiled
+    """The best triangulation of the polygon ``poly`` (counter-clockwise) by the worst
+    :func:`_score` of its triangles (dynamic programming over its chords: ``choice[i, j]``
+    is the apex over chord i-j); returns that worst score."""
+    k = poly.shape[0]
+    value = np.full((k, k), np.inf)
+    for gap in range(2, k):
+        for i in range(k - gap):
+            j = i + gap
+            best, arg = -np.inf, -1
+            for m in range(i + 1, j):
+                v = min(_score(poly, i, m, j), value[i, m], value[m, j])
+                if v > best:
+                    best, arg = v, m
+            value[i, j], choice[i, j] = best, arg
+    return value[0, k - 1]
+
+
+@nb.njit(cache=True)
+def _two_on_sides(
+    p: FloatArray, ring: IntArray, s1: int, s2: int, u: float, v: float, choice: IntArray
+) -> tuple[FloatArray, float]:  # pragma: no cover - compiled
+    """The polygon of ``ring`` with a node at fraction ``u`` along its side ``s1`` (from
+    ``ring[s1]`` to the next corner) and one at ``v`` along ``s2``, and its best score."""
+    k = ring.shape[0]
+    poly = np.empty((k + 2, 2))
+    n = 0
+    for a in range(k):
+        poly[n, 0], poly[n, 1] = p[ring[a], 0], p[ring[a], 1]
+        n += 1
+        if a in (s1, s2):
+            f = u if a == s1 else v
+            b = ring[(a + 1) % k]
+            poly[n, 0] = p[ring[a], 0] + f * (p[b, 0] - p[ring[a], 0])
+            poly[n, 1] = p[ring[a], 1] + f * (p[b, 1] - p[ring[a], 1])
+            n += 1
+    return poly, _triangulate(poly, choice)
+
+
+@nb.njit(cache=True)
+def _place_on_two_sides(
+    p: FloatArray, ring: IntArray, s1: int, s2: int
+) -> tuple[float, float, float]:  # pragma: no cover - compiled
+    """Where on the boundary sides ``s1`` and ``s2`` of ``ring`` two nodes, the polygon then
+    triangulated by :func:`_triangulate`, make the worst score best: (the fractions along the
+    two sides, that score; -inf when no triangulation is valid)."""
+    choice = np.zeros((ring.shape[0] + 2, ring.shape[0] + 2), dtype=np.int64)
+    bu, bv, best = 0.5, 0.5, -np.inf
+    for i in range(1, _PAIR_SAMPLES):
+        for j in range(1, _PAIR_SAMPLES):
+            u, v = i / _PAIR_SAMPLES, j / _PAIR_SAMPLES
+            score = _two_on_sides(p, ring, s1, s2, u, v, choice)[1]
+            if score > best:
+                bu, bv, best = u, v, score
+    step = 0.5 / _PAIR_SAMPLES
+    for _ in range(_HALVINGS):
+        for du, dv in ((-step, 0.0), (step, 0.0), (0.0, -step), (0.0, step)):
+            u, v = bu + du, bv + dv
+            if 0.0 < u < 1.0 and 0.0 < v < 1.0:
+                score = _two_on_sides(p, ring, s1, s2, u, v, choice)[1]
+                if score > best:
+                    bu, bv, best = u, v, score
+        step *= 0.5
+    return bu, bv, best
+
+
+def _chords(choice: IntArray, i: int, j: int) -> list[tuple[int, int, int]]:
+    """The triangles (polygon positions) :func:`_triangulate` chose under chord i-j."""
+    if j - i < 2:
+        return []
+    m = int(choice[i, j])
+    return [(i, m, j), *_chords(choice, i, m), *_chords(choice, m, j)]
+
+
+def _cavities(tri: IntArray, nbr: IntArray, t: int) -> list[tuple[list[int], list[int]]]:
+    """The cavities offered around triangle ``t``: (triangles, corners counter-clockwise)."""
+    sides = [k for k in range(3) if nbr[t, k] >= 0]
+    options: list[list[int]] = [[]] + [[k] for k in sides] + ([sides] if len(sides) > 1 else [])
+    out = []
+    for chosen in options:
+        ring: list[int] = []
+        tris = [t]
+        for j in range(3):
+            ring.append(int(tri[t, j]))
+            k = (j + 2) % 3  # the side from corner j to corner j + 1
+            if k in chosen:
+                n = int(nbr[t, k])
+                apex = [int(v) for v in tri[n] if v != tri[t, j] and v != tri[t, (j + 1) % 3]]
+                ring.append(apex[0])
+                tris.append(n)
+        out.append((tris, ring))
+    return out
+
+
+def split_sides_round(
+    mesh: Mesh, held: frozenset[tuple[float, float, float, float]] = frozenset()
+) -> Mesh | None:
+    """A node on a boundary side of a small cavity (as in :func:`_cavities`) around each
+    triangle that has all three nodes on the boundary and an angle below
+    :data:`EDGE_SPLIT_BELOW`, joined to the cavity's corners (:func:`_one_node`), or where
+    none reaches that angle a node on each of two sides (:func:`_two_nodes`), where that lifts
+    the cavity's smallest angle by :data:`EDGE_GAIN` (or :data:`EDGE_GAIN_DEG`) without lowering
+    its worst radius ratio; None when nothing was split.
+
+    Near a corner whose first boundary nodes sit at unequal distances on its two legs (input
+    vertices closer than the size, a short segment beside a long one) the corner's triangle has
+    a second angle below the corner's own: a node on the longer leg at the shorter leg's
+    distance makes it isosceles. The node stays on the input segment, so the mesh still covers
+    the region exactly. Sides in ``held`` (by their ends' coordinates) are never split.
+    """
+    if mesh.n_triangles == 0:
+        return None
+    tri, p = mesh.triangles, mesh.points
+    spanning = mesh.boundary_nodes[tri].all(axis=1)
+    angle = np.full(len(tri), np.inf)
+    angle[spanning] = min_angle(p, tri[spanning])
+    candidates = np.flatnonzero(angle < EDGE_SPLIT_BELOW)
+    if candidates.size == 0:
+        return None
+    nbr = _neighbours(tri)
+    boundary = {
+        (a, b)
+        for a, b in mesh.boundary_edges.tolist()
+        if (*p[a].tolist(), *p[b].tolist()) not in held
+    }
+    used = np.zeros(len(tri), dtype=bool)
+    new_points: list[FloatArray] = []
+    fans: list[IntArray] = []
+    for t in candidates[np.argsort(angle[candidates], kind="stable")].tolist():
+        best: _SideSplit | None = None
+        offers: list[tuple[list[int], list[int], list[int], float, float]] = []
+        for tris, ring in _cavities(tri, nbr, t):
+            if used[tris].any():
+                continue
+            old = tri[tris]
+            least = float(min_angle(p, old).min())
+            least += min(least * EDGE_GAIN, EDGE_GAIN_DEG)
+            floor = float(radius_ratio(p, old).min())
+            sides = [
+                a for a in range(len(ring)) if (ring[a], ring[(a + 1) % len(ring)]) in boundary
+            ]
+            offers.append((tris, ring, sides, least, floor))
+        for tries in (_one_node, _two_nodes):
+            if best is not None and best[0] >= EDGE_SPLIT_BELOW:
+                break  # a node on two sides only where one does not reach the cap
+            for tris, ring, sides, least, floor in offers:
+                for smallest, worst, xy, polygon in tries(p, ring, sides):
+                    better = best is None or smallest > best[0]
+                    if smallest >= least and worst >= floor and better:
+                        best = (smallest, worst, xy, polygon, tris)
+        if best is None:
+            continue
+        _, _, xy, polygon, tris = best
+        used[tris] = True
+        node = mesh.n_points + len(new_points)
+        new_points.extend(xy)
+        # The polygon's corners: the mesh's nodes, the new ones as -1, -2 in order.
+        index = np.array([v if v >= 0 else node - v - 1 for v in polygon[0]], dtype=np.int64)
+        fans.append(index[polygon[1]])
+    if not fans:
+        return None
+    return Mesh(
+        np.concatenate([p, np.asarray(new_points)]),
+        np.concatenate([tri[~used], *fans]).astype(np.int64),
+    )
+
+
+#: A boundary-side split: (its smallest angle in degrees, its worst radius ratio, the new
+#: nodes, the polygon (ring corners with the new nodes as -1, -2) and its triangles by polygon
+#: position).
+_Split = tuple[float, float, list[FloatArray], tuple[list[int], IntArray]]
+_SideSplit = tuple[float, float, list[FloatArray], tuple[list[int], IntArray], list[int]]
+
+
+def _one_node(p: FloatArray, ring: list[int], sides: list[int]) -> list[_Split]:
+    """A node on each boundary side of ``ring`` in turn, joined to the ring's corners."""
+    out = []
+    for a in sides:
+        chain = ring[a + 1 :] + ring[: a + 1]  # from the side's end round to its start
+        at, worst, smallest = _place_on_side(p, np.asarray(chain, dtype=np.int64))
+        xy = p[chain[-1]] + at * (p[chain[0]] - p[chain[-1]])
+        k = len(chain)
+        fan = np.array([[i, i + 1, k] for i in range(k - 1)], dtype=np.int64)
+        out.append((math.degrees(smallest), worst, [xy], ([*chain, -1], fan)))
+    return out
+
+
+def _two_nodes(p: FloatArray, ring: list[int], sides: list[int]) -> list[_Split]:
+    """A node on each of two boundary sides of ``ring``, the polygon they make triangulated
+    for its smallest angle (up to 30 degrees), then its worst radius ratio.
+
+    Where a sharp corner's legs carry nodes at unequal distances (input vertices closer than
+    the size), the triangle beside the corner's own joins a rung to a far leg node: a 37-degree
+    spike kept 28.5 degrees there, since a node on either leg alone leaves that angle, while a
+    node on each leg makes a ladder of two more rungs (31.8 degrees).
+    """
+    out = []
+    ring_arr = np.asarray(ring, dtype=np.int64)
+    for s1, s2 in itertools.combinations(sides, 2):
+        u, v, score = _place_on_two_sides(p, ring_arr, s1, s2)
+        if not math.isfinite(score):
+            continue
+        choice = np.zeros((len(ring) + 2, len(ring) + 2), dtype=np.int64)
+        poly, _ = _two_on_sides(p, ring_arr, s1, s2, u, v, choice)
+        triangles = np.array(_chords(choice, 0, len(poly) - 1), dtype=np.int64)
+        corners: list[int] = []
+        for a, c in enumerate(ring):
+            corners.append(c)
+            if a in (s1, s2):
+                corners.append(-1 if a == s1 else -2)
+        smallest = float(min_angle(poly, triangles).min())
+        worst = float(radius_ratio(poly, triangles).min())
+        xy = [poly[corners.index(-1)], poly[corners.index(-2)]]
+        out.append((smallest, worst, xy, (corners, triangles)))
+    return out
