@@ -35,10 +35,18 @@ _HALVINGS = 14
 #: Triangles with all three nodes on the boundary and a smaller angle (degrees) than this are
 #: offered a node on one of their boundary sides.
 EDGE_SPLIT_BELOW = 30.0
+#: ... and so are those with a radius ratio below this (a flat triangle at a corner of 30
+#: degrees or more whose first boundary nodes sit at unequal distances on its legs).
+EDGE_RR_BELOW = 0.85
 #: A boundary side is split only when the cavity's smallest angle gains this much (relative) or
 #: :data:`EDGE_GAIN_DEG` degrees, whichever is less.
 EDGE_GAIN = 0.05
 EDGE_GAIN_DEG = 0.5
+#: ... or, where the smallest angle does not fall, when the worst radius ratio gains this much
+#: (relative).
+EDGE_RR_GAIN = 0.005
+#: Degrees within which two smallest angles count as equal.
+_ANGLE_TIE = 1e-6
 #: Evenly spaced trial positions along a boundary side before refining the best.
 _EDGE_SAMPLES = 32
 #: Trial fractions along each of two boundary sides (:func:`_place_on_two_sides`).
@@ -73,13 +81,21 @@ def _fan(
     return worst, total / sides, smallest
 
 
+@nb.njit(cache=True, inline="always")
+def _better(angle: float, worst: float, best_angle: float, best_worst: float) -> bool:
+    """A larger smallest angle (radians), or an equal one and a larger worst radius ratio."""
+    tie = math.radians(_ANGLE_TIE)
+    return angle > best_angle + tie or (angle > best_angle - tie and worst > best_worst)
+
+
 @nb.njit(cache=True)
 def _place_on_side(
     p: FloatArray, chain: IntArray
 ) -> tuple[float, float, float]:  # pragma: no cover
     """Where on the boundary side from ``chain``'s last node to its first a node joined to
-    each side of ``chain`` makes the fan's smallest angle largest: (the fraction along that
-    side, the fan's worst radius ratio and its smallest angle; -inf when no fan is valid)."""
+    each side of ``chain`` makes the fan's smallest angle largest, then its worst radius ratio:
+    (the fraction along that side, the fan's worst radius ratio and its smallest angle; -inf
+    when no fan is valid)."""
     k = chain.shape[0]
     ax, ay = p[chain[k - 1], 0], p[chain[k - 1], 1]
     dx, dy = p[chain[0], 0] - ax, p[chain[0], 1] - ay
@@ -87,14 +103,14 @@ def _place_on_side(
     for i in range(1, _EDGE_SAMPLES):
         s = i / _EDGE_SAMPLES
         w, _, a = _fan(p, chain, ax + s * dx, ay + s * dy, k - 1)
-        if w > 0.0 and a > smallest:
+        if w > 0.0 and _better(a, w, smallest, worst):
             at, worst, smallest = s, w, a
     step = 0.5 / _EDGE_SAMPLES
     for _ in range(_HALVINGS):
         for s in (at - step, at + step):
             if 0.0 < s < 1.0:
                 w, _, a = _fan(p, chain, ax + s * dx, ay + s * dy, k - 1)
-                if w > 0.0 and a > smallest:
+                if w > 0.0 and _better(a, w, smallest, worst):
                     at, worst, smallest = s, w, a
         step *= 0.5
     return at, worst, smallest
@@ -245,7 +261,9 @@ def split_sides_round(
     spanning = mesh.boundary_nodes[tri].all(axis=1)
     angle = np.full(len(tri), np.inf)
     angle[spanning] = min_angle(p, tri[spanning])
-    candidates = np.flatnonzero(angle < EDGE_SPLIT_BELOW)
+    ratio = np.full(len(tri), np.inf)
+    ratio[spanning] = radius_ratio(p, tri[spanning])
+    candidates = np.flatnonzero((angle < EDGE_SPLIT_BELOW) | (ratio < EDGE_RR_BELOW))
     if candidates.size == 0:
         return None
     nbr = _neighbours(tri)
@@ -265,7 +283,6 @@ def split_sides_round(
                 continue
             old = tri[tris]
             least = float(min_angle(p, old).min())
-            least += min(least * EDGE_GAIN, EDGE_GAIN_DEG)
             floor = float(radius_ratio(p, old).min())
             sides = [
                 a for a in range(len(ring)) if (ring[a], ring[(a + 1) % len(ring)]) in boundary
@@ -276,9 +293,9 @@ def split_sides_round(
                 break  # a node on two sides only where one does not reach the cap
             for tris, ring, sides, least, floor in offers:
                 for smallest, worst, xy, polygon in tries(p, ring, sides):
-                    better = best is None or smallest > best[0]
-                    if smallest >= least and worst >= floor and better:
-                        best = (smallest, worst, xy, polygon, tris)
+                    key = (round(min(smallest, EDGE_SPLIT_BELOW), 6), worst)
+                    if _gains(smallest, worst, least, floor) and (best is None or key > best[:2]):
+                        best = (*key, xy, polygon, tris)
         if best is None:
             continue
         _, _, xy, polygon, tris = best
@@ -294,6 +311,22 @@ def split_sides_round(
         np.concatenate([p, np.asarray(new_points)]),
         np.concatenate([tri[~used], *fans]).astype(np.int64),
     )
+
+
+def _gains(smallest: float, worst: float, least: float, floor: float) -> bool:
+    """Whether a split whose smallest angle (degrees) and worst radius ratio are ``smallest``
+    and ``worst`` improves on a cavity's ``least`` and ``floor``: its smallest angle gains
+    :data:`EDGE_GAIN` (or :data:`EDGE_GAIN_DEG`) and its worst does not fall, or its smallest
+    angle does not fall and its worst gains :data:`EDGE_RR_GAIN`.
+
+    At a sharp input corner whose legs end at input vertices at unequal distances, the
+    corner's triangle keeps the corner's angle whatever is done (15 degrees beside a reflex
+    corner of a random region), yet its third side is flat (149 degrees, radius ratio 0.142); a
+    node on the longer leg makes it isosceles (0.454) without changing its smallest angle.
+    """
+    by_angle = smallest >= least + min(least * EDGE_GAIN, EDGE_GAIN_DEG) and worst >= floor
+    by_ratio = smallest >= least - _ANGLE_TIE and worst >= floor * (1.0 + EDGE_RR_GAIN)
+    return by_angle or by_ratio
 
 
 #: A boundary-side split: (its smallest angle in degrees, its worst radius ratio, the new

@@ -10,6 +10,8 @@ from shapely.geometry import Polygon, box
 from engine import Mesh, Region, make_region, validate_mesh
 from engine.mesh import edge_table
 
+from .shapes import spike_ring as spike_ring  # re-exported: the tests draw spikes here
+
 Rings = tuple[list[list[float]], list[list[list[float]]]]
 
 
@@ -124,13 +126,3 @@ def region_of(rings: Rings) -> Region:
 SPIKES = st.tuples(
     st.floats(5.0, 45.0), st.tuples(st.floats(0.3, 2.5), st.floats(0.3, 2.5)), st.floats(0.1, 0.2)
 )
-
-
-def spike_ring(theta: float, legs: tuple[float, float], size: float) -> list[list[float]]:
-    """A ``theta``-degree spike at the origin whose legs, ``legs`` times ``size`` long, turn
-    away at input vertices into a body reaching x = 1 (y from -0.5 to 0.5)."""
-    half = np.radians(theta) / 2
-    a = legs[0] * size * np.array([np.cos(half), np.sin(half)])
-    b = legs[1] * size * np.array([np.cos(half), -np.sin(half)])
-    ring = [[0.0, 0.0], b, [b[0], -0.5], [1.0, -0.5], [1.0, 0.5], [a[0], 0.5], a]
-    return np.asarray(ring, dtype=float).tolist()
