@@ -382,7 +382,9 @@ def warmup() -> tuple[str, ...]:
     now compiled (see :func:`compiled_kernels`).
 
     The GA runs with ``selection="all"``: the tiny mesh has no poor triangle, and with the
-    default selection the GA's kernels would be left for the first job to compile.
+    default selection the GA's kernels would be left for the first job to compile. A 37-degree
+    spike whose legs end at input vertices at unequal distances is meshed too: its corner gets
+    an interior node and nodes on its sides (:mod:`engine.spanning`, :mod:`engine.sides`).
     """
     from .boundary import make_region
 
@@ -394,4 +396,7 @@ def warmup() -> tuple[str, ...]:
             method=method, population=8, generations=2, max_sweeps=1, selection="all"
         )
         mesh_then_smooth(region, PipelineParams(SizingParams(0.2), smoothing=smoothing))
+    spike = [[0.0, 0.0], [0.23, -0.077], [0.23, -0.5], [1.0, -0.5], [1.0, 0.5]]
+    spike += [[0.265, 0.5], [0.265, 0.089]]
+    mesh_region(make_region([(spike, [])]), SizingParams(0.2))
     return tuple(sorted(name for name, count in compiled_kernels().items() if count))

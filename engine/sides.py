@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .mesh import Mesh
-from .quality import min_angle, radius_ratio
+from .quality import corner_angles, min_angle, radius_ratio
 from .relax import radius_ratio_xy
 from .swap import _neighbours
 
@@ -35,9 +35,6 @@ _HALVINGS = 14
 #: Triangles with all three nodes on the boundary and a smaller angle (degrees) than this are
 #: offered a node on one of their boundary sides.
 EDGE_SPLIT_BELOW = 30.0
-#: ... and so are those with a radius ratio below this (a flat triangle at a corner of 30
-#: degrees or more whose first boundary nodes sit at unequal distances on its legs).
-EDGE_RR_BELOW = 0.85
 #: A boundary side is split only when the cavity's smallest angle gains this much (relative) or
 #: :data:`EDGE_GAIN_DEG` degrees, whichever is less.
 EDGE_GAIN = 0.05
@@ -259,13 +256,25 @@ def split_sides_round(
         return None
     tri, p = mesh.triangles, mesh.points
     spanning = mesh.boundary_nodes[tri].all(axis=1)
+    corners = corner_angles(p, tri[spanning])
     angle = np.full(len(tri), np.inf)
-    angle[spanning] = min_angle(p, tri[spanning])
+    angle[spanning] = corners.min(axis=1)
     ratio = np.full(len(tri), np.inf)
     ratio[spanning] = radius_ratio(p, tri[spanning])
-    candidates = np.flatnonzero((angle < EDGE_SPLIT_BELOW) | (ratio < EDGE_RR_BELOW))
+    # A triangle holding an input corner whole (its node has no other triangle) is offered a
+    # split where it falls short of the isosceles triangle, the best it can be (the corner's
+    # first boundary nodes at unequal distances on its legs), whatever its angles; where its
+    # smallest angle is that corner's, no split changes that angle.
+    held_whole = np.zeros(len(tri), dtype=bool)
+    lone = np.bincount(tri.ravel(), minlength=mesh.n_points)[tri[spanning]] == 1
+    held_whole[spanning] = np.take_along_axis(lone, corners.argmin(axis=1)[:, None], 1)[:, 0]
+    corner = np.where(lone, corners, np.inf).min(axis=1)  # the input corner it holds whole
+    flat = np.zeros(len(tri), dtype=bool)
+    flat[spanning] = ratio[spanning] * (1.0 + EDGE_RR_GAIN) < _isosceles_ratio(np.radians(corner))
+    candidates = np.flatnonzero((angle < EDGE_SPLIT_BELOW) & ~held_whole | flat)
     if candidates.size == 0:
         return None
+    bound = _corner_bound(mesh)
     nbr = _neighbours(tri)
     boundary = {
         (a, b)
@@ -288,9 +297,13 @@ def split_sides_round(
                 a for a in range(len(ring)) if (ring[a], ring[(a + 1) % len(ring)]) in boundary
             ]
             offers.append((tris, ring, sides, least, floor))
-        for tries in (_one_node, _two_nodes):
+        # A node on two sides (a search some hundred times dearer) only below the bound the
+        # input sets, where one does not reach the cap, and not for a corner held whole (one
+        # node makes its triangle isosceles).
+        pair = angle[t] < bound and not held_whole[t]
+        for tries in (_one_node, _two_nodes) if pair else (_one_node,):
             if best is not None and best[0] >= EDGE_SPLIT_BELOW:
-                break  # a node on two sides only where one does not reach the cap
+                break
             for tris, ring, sides, least, floor in offers:
                 for smallest, worst, xy, polygon in tries(p, ring, sides):
                     key = (round(min(smallest, EDGE_SPLIT_BELOW), 6), worst)
@@ -311,6 +324,23 @@ def split_sides_round(
         np.concatenate([p, np.asarray(new_points)]),
         np.concatenate([tri[~used], *fans]).astype(np.int64),
     )
+
+
+def _corner_bound(mesh: Mesh) -> float:
+    """min(the smallest angle of the region at a boundary node, :data:`EDGE_SPLIT_BELOW`)
+    (degrees): the smallest angle the input lets a mesh reach."""
+    tri = mesh.triangles
+    near = mesh.boundary_nodes[tri].any(axis=1)
+    total = np.zeros(mesh.n_points)
+    np.add.at(total, tri[near].ravel(), corner_angles(mesh.points, tri[near]).ravel())
+    return min(float(total[mesh.boundary_nodes].min()), EDGE_SPLIT_BELOW)
+
+
+def _isosceles_ratio(apex: FloatArray) -> FloatArray:
+    """Radius ratio of the isosceles triangle with apex angle ``apex`` (radians; 0 for an
+    infinite one): the best a triangle holding an input corner of that angle whole can have."""
+    apex = np.where(np.isfinite(apex), apex, 0.0)
+    return np.asarray(8.0 * np.sin(apex / 2.0) * np.sin((np.pi - apex) / 4.0) ** 2)
 
 
 def _gains(smallest: float, worst: float, least: float, floor: float) -> bool:
