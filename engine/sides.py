@@ -7,7 +7,9 @@ corner's own join a rung to a far leg node and keep an angle below the corner's:
 move their nodes. Each triangle with all three nodes on the boundary and an angle below
 :data:`EDGE_SPLIT_BELOW` is offered, in a small cavity around it (:func:`_cavities`), a node on
 one of the cavity's boundary sides joined to its corners, or where that does not reach the cap,
-a node on each of two of its boundary sides with the polygon they make triangulated afresh. The
+a node on each of two of its boundary sides with the polygon they make triangulated afresh. So
+is each triangle holding an input corner whole that falls short of the isosceles triangle at
+that corner: its angle cannot change, but a node on its longer leg lifts its radius ratio. The
 nodes stay on the input segments, so the mesh still covers the region exactly.
 """
 
