@@ -215,8 +215,11 @@ def run_graded(rows: list[dict[str, float | str]]) -> None:
         )
 
 
-def gmsh_mesh(region: Region, field: SizeField, background: Mesh | None) -> tuple[Mesh, float]:
-    """Mesh ``region`` with gmsh algorithm 6 on ``field`` (via ``background`` when graded)."""
+def gmsh_mesh(
+    region: Region, field: SizeField, background: Mesh | None, optimize: str | None = None
+) -> tuple[Mesh, float]:
+    """Mesh ``region`` with gmsh algorithm 6 on ``field`` (via ``background`` when graded),
+    then gmsh's ``optimize`` (e.g. ``"Relocate2D"``) when given."""
 
     def build(gmsh: ModuleType) -> None:
         gmsh.model.add("region")
@@ -247,7 +250,7 @@ def gmsh_mesh(region: Region, field: SizeField, background: Mesh | None) -> tupl
             gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
             gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
 
-    run = run_gmsh(build)
+    run = run_gmsh(build, optimize=optimize)
     return run.mesh, run.seconds
 
 
