@@ -24,6 +24,7 @@ from .relax import relax, relax_mean
 from .resample import resample_region
 from .result import ProgressFn, Result, Snapshot, StopFn
 from .sizing import build_size_field
+from .slide import SLIDE_ROUNDS, slide_round
 from .smoothing import SMOOTHERS, smooth_points
 from .spanning import split_spanning
 from .swap import regularise_valence, swap_diagonals
@@ -165,8 +166,8 @@ def mesh_region(
     The mesher is the advancing front followed by ``relax_sweeps`` sweeps of constrained
     relaxation, edge collapses where fronts left a node too many
     (:func:`engine.collapse.collapse_edges`), a node in each wedge-spanning triangle where
-    that helps (:func:`engine.spanning.split_spanning`, which may also split boundary sides)
-    and relaxation again (0 gives the raw front).
+    that helps (:func:`engine.spanning.split_spanning`, which may also split boundary sides),
+    boundary slides (:mod:`engine.slide`) and relaxation again (0 gives the raw front).
     Raises :class:`LimitExceeded` when the estimated (or, while meshing, the actual) triangle
     count is over ``max_triangles``; every stage polls ``should_stop`` and reports ``progress``
     (stages ``sizing``, ``estimate``, ``discretize``, ``front``, ``relax``, ``collapse``).
@@ -174,7 +175,8 @@ def mesh_region(
     field and the estimate see the resampled boundary. No stage splits a boundary segment in
     ``held_sides`` (by its ends' coordinates ``(ax, ay, bx, by)``, either way: a subdomain's
     pieces of shared edges, split once for both sides), and after the discretisation no
-    stage removes or moves a boundary node: only the side splits add one.
+    stage removes a boundary node: the side splits add some, and the slides move a node inside
+    an input segment along it (never an input vertex, nor a node of a side in ``held_sides``).
     """
     progress = progress or _no_progress
     should_stop = should_stop or _never
@@ -201,6 +203,12 @@ def mesh_region(
     if relax_sweeps > 0:  # 0 asks for the raw front
         progress("collapse", 0.0)
         collapsed = split_spanning(collapse_edges(mesh, should_stop=should_stop), held=held_sides)
+        inputs = {(float(x), float(y)) for ring in region.rings for x, y in ring}
+        for _ in range(SLIDE_ROUNDS):
+            slid = slide_round(collapsed, inputs, held_sides)
+            if slid is None:
+                break
+            collapsed = slid
         progress("relax", 0.5)
         mesh = relax(collapsed, relax_sweeps, should_stop=should_stop)
     progress("relax", 1.0)

@@ -27,10 +27,11 @@ from .quality import corner_angles, min_angle, radius_ratio
 from .relax import radius_ratio_xy
 from .swap import _neighbours
 
-__all__ = ["EDGE_SPLIT_BELOW", "split_sides_round"]
+__all__ = ["EDGE_SPLIT_BELOW", "corner_figures", "split_sides_round"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
+BoolArray = NDArray[np.bool_]
 
 #: Compass-search halvings when placing the new node.
 _HALVINGS = 14
@@ -257,22 +258,7 @@ def split_sides_round(
     if mesh.n_triangles == 0:
         return None
     tri, p = mesh.triangles, mesh.points
-    spanning = mesh.boundary_nodes[tri].all(axis=1)
-    corners = corner_angles(p, tri[spanning])
-    angle = np.full(len(tri), np.inf)
-    angle[spanning] = corners.min(axis=1)
-    ratio = np.full(len(tri), np.inf)
-    ratio[spanning] = radius_ratio(p, tri[spanning])
-    # A triangle holding an input corner whole (its node has no other triangle) is offered a
-    # split where it falls short of the isosceles triangle, the best it can be (the corner's
-    # first boundary nodes at unequal distances on its legs), whatever its angles; where its
-    # smallest angle is that corner's, no split changes that angle.
-    held_whole = np.zeros(len(tri), dtype=bool)
-    lone = np.bincount(tri.ravel(), minlength=mesh.n_points)[tri[spanning]] == 1
-    held_whole[spanning] = np.take_along_axis(lone, corners.argmin(axis=1)[:, None], 1)[:, 0]
-    corner = np.where(lone, corners, np.inf).min(axis=1)  # the input corner it holds whole
-    flat = np.zeros(len(tri), dtype=bool)
-    flat[spanning] = ratio[spanning] * (1.0 + EDGE_RR_GAIN) < _isosceles_ratio(np.radians(corner))
+    angle, held_whole, flat = corner_figures(mesh)
     candidates = np.flatnonzero((angle < EDGE_SPLIT_BELOW) & ~held_whole | flat)
     if candidates.size == 0:
         return None
@@ -326,6 +312,27 @@ def split_sides_round(
         np.concatenate([p, np.asarray(new_points)]),
         np.concatenate([tri[~used], *fans]).astype(np.int64),
     )
+
+
+def corner_figures(mesh: Mesh) -> tuple[FloatArray, BoolArray, BoolArray]:
+    """Per triangle: its smallest angle (degrees; inf unless all its nodes are on the
+    boundary), whether that angle is an input corner held whole (its node has no other
+    triangle: nothing changes that angle), and whether it holds an input corner whole with a
+    radius ratio more than :data:`EDGE_RR_GAIN` under the isosceles triangle's at that corner,
+    the best it can be (the corner's first boundary nodes at unequal distances on its legs)."""
+    tri, p = mesh.triangles, mesh.points
+    spanning = mesh.boundary_nodes[tri].all(axis=1)
+    corners = corner_angles(p, tri[spanning])
+    angle = np.full(len(tri), np.inf)
+    angle[spanning] = corners.min(axis=1)
+    held_whole = np.zeros(len(tri), dtype=bool)
+    lone = np.bincount(tri.ravel(), minlength=mesh.n_points)[tri[spanning]] == 1
+    held_whole[spanning] = np.take_along_axis(lone, corners.argmin(axis=1)[:, None], 1)[:, 0]
+    corner = np.where(lone, corners, np.inf).min(axis=1)  # the input corner it holds whole
+    flat = np.zeros(len(tri), dtype=bool)
+    ratio = radius_ratio(p, tri[spanning])
+    flat[spanning] = ratio * (1.0 + EDGE_RR_GAIN) < _isosceles_ratio(np.radians(corner))
+    return angle, held_whole, flat
 
 
 def _corner_bound(mesh: Mesh) -> float:

@@ -9,8 +9,8 @@ with its own size, each triangle knowing its polygon.
 4. Each polygon is meshed alone (its size: its own ``h``; a neighbour's smaller ``h`` grades in
    from their common boundary as a refinement), its ring holding those split points and no
    piece between two of them split again (its other segments are discretised to its own
-   field; no later stage of the mesher adds or removes a boundary node), so both sides have
-   exactly the same nodes; the meshes are merged on them.
+   field; no later stage of the mesher adds, removes or moves a node of those pieces), so both
+   sides have exactly the same nodes; the meshes are merged on them.
 5. Constraints (lines and points, :mod:`engine.constraints`) are put into the merged mesh,
    their lines noded where they cross an interface; no repair flip crosses an interface.
 6. Swapping (diagonals, then valence) never flips an interface or constraint edge and
