@@ -105,6 +105,8 @@ class _Worker:
     timer: asyncio.TimerHandle | None = None
     gone: bool = False  #: its death was handled (loop side)
     ready: bool = False  #: warmed up: it takes tasks
+    #: The hand-over in flight (a thread writing to ``conn``): the pipe is closed only after it.
+    sending: asyncio.Future[Exception | None] | None = None
 
 
 class _Watcher:
@@ -169,8 +171,7 @@ class _Watcher:
                     self._read(worker, once=False)  # what it sent before dying comes first
                     with self._lock:
                         self._workers.remove(worker)
-                    with contextlib.suppress(OSError):
-                        worker.conn.close()
+                    # The loop closes the pipe (_close_pipe): a hand-over may be writing to it.
                     self._post(self._on_death, worker)
 
     def _read(self, worker: _Worker, *, once: bool) -> None:
@@ -269,9 +270,11 @@ class LocalBackend(QueuedBackend):
         if self._watcher is not None:
             await asyncio.to_thread(self._watcher.stop)
             self._watcher = None
+        # The workers are dead: a hand-over still writing ends with a broken pipe.
+        sends = [w.sending for w in pool if w.sending is not None]
+        await asyncio.gather(*sends, return_exceptions=True)
         for worker in pool:
-            with contextlib.suppress(OSError):
-                worker.conn.close()
+            _close_pipe(worker)
             worker.process.close()
 
     # -- tasks ---------------------------------------------------------------------------------
@@ -329,6 +332,7 @@ class LocalBackend(QueuedBackend):
         assert self._events is not None
         self._events.started(task.job_id)
         sending = loop.run_in_executor(None, _send, worker.conn, token, task)
+        worker.sending = sending
         sending.add_done_callback(functools.partial(self._sent, worker, task, token))
 
     def _sent(
@@ -394,6 +398,7 @@ class LocalBackend(QueuedBackend):
             self._finish(worker, msg[2])
 
     def _died(self, worker: _Worker) -> None:
+        _close_pipe(worker)
         if worker.gone or self._closing:
             return
         worker.gone = True
@@ -412,6 +417,16 @@ class LocalBackend(QueuedBackend):
         self._spawns.add(spawn)  # a reference, or the task may be collected mid-flight
         spawn.add_done_callback(self._spawns.discard)
         self._dispatch()
+
+
+def _close_pipe(worker: _Worker) -> None:
+    """Close ``worker``'s pipe once no hand-over writes to it: closing it under a writing thread
+    would hand that thread a closed handle, or a descriptor number reused by another file."""
+    if worker.sending is not None and not worker.sending.done():
+        worker.sending.add_done_callback(lambda _: _close_pipe(worker))
+        return
+    with contextlib.suppress(OSError):
+        worker.conn.close()
 
 
 def _send(conn: Connection, token: int, task: Task) -> Exception | None:
