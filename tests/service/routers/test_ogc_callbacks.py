@@ -243,6 +243,9 @@ async def test_a_delivery_cut_by_a_stop_is_resumed_by_the_next_start(tmp_path: P
             assert (await wait_for(client, job_id))["status"] == "successful"
             await _until(lambda: 500 in receiver.statuses("/done"))
             await _until(lambda: receiver.answered("/running", 204))
+            # ... and kept as sent: the receiver's answer comes before the store records it.
+            store = client.app.state.manager.store  # type: ignore[attr-defined]
+            await _until(lambda: "inProgressUri" in dict(store.subscribed())[job_id]["sent"])
         with receiver.lock:
             receiver.fail_first["/done"] = 0  # the receiver is back
         async with _service(data) as client:
