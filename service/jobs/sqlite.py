@@ -126,23 +126,30 @@ def _record(row: sqlite3.Row | tuple[Any, ...]) -> JobRecord:
 
 def _translated(method: Callable[P, T]) -> Callable[P, T]:
     """SQLite's errors as the store's: a write that failed is :class:`StoreUnavailable` (disk
-    full, I/O error, locked), a file that is not a database :class:`StoreCorrupt`."""
+    full, I/O error, locked), a file that is not a database :class:`StoreCorrupt`. The call
+    counts as in use, so :meth:`SqliteJobStore.close` waits for it; once closed, a call is
+    :class:`StoreUnavailable`."""
 
     @functools.wraps(method)
     def call(*args: P.args, **kwargs: P.kwargs) -> T:
+        store = args[0]
+        assert isinstance(store, SqliteJobStore)
+        store._enter()
         try:
             return method(*args, **kwargs)
         except sqlite3.DatabaseError as exc:
-            store = args[0]
-            assert isinstance(store, SqliteJobStore)
             code = (getattr(exc, "sqlite_errorcode", None) or 0) & 0xFF
             if isinstance(exc, sqlite3.OperationalError) or code in _TRANSIENT:
                 raise StoreUnavailable(f"the job store {store.path} failed: {exc}") from exc
             raise StoreCorrupt(f"the job store {store.path} cannot be read: {exc}") from exc
+        finally:
+            store._leave()
 
     return call
 
 
+#: Seconds :meth:`SqliteJobStore.close` waits for calls in use (a write may wait out a lock).
+CLOSE_WAIT = 60.0
 #: SQLite result codes of a write that may succeed later.
 _TRANSIENT = frozenset(
     getattr(sqlite3, name, -1)
@@ -169,6 +176,8 @@ class SqliteJobStore:
         self._local = threading.local()
         self._all: list[sqlite3.Connection] = []
         self._lock = threading.Lock()
+        self._idle = threading.Condition(self._lock)  #: notified when no call is in use
+        self._busy = 0  #: calls in use (on any thread)
         self._closed = False
         try:
             conn = self._conn()
@@ -195,8 +204,8 @@ class SqliteJobStore:
     def _conn(self) -> sqlite3.Connection:
         conn: sqlite3.Connection | None = getattr(self._local, "conn", None)
         if conn is None:
-            if self._closed:
-                raise sqlite3.ProgrammingError("the job store is closed")
+            # (A closed store refuses calls in _enter; one in use may still open its thread's
+            # connection, which close, waiting for it, closes with the rest.)
             conn = sqlite3.connect(
                 self.path, timeout=30.0, isolation_level=None, check_same_thread=False
             )
@@ -220,9 +229,24 @@ class SqliteJobStore:
             raise
         conn.execute("COMMIT")
 
+    def _enter(self) -> None:
+        with self._lock:
+            if self._closed:
+                raise StoreUnavailable(f"the job store {self.path} is closed")
+            self._busy += 1
+
+    def _leave(self) -> None:
+        with self._lock:
+            self._busy -= 1
+            if self._busy == 0:
+                self._idle.notify_all()
+
     def close(self) -> None:
+        """Close every thread's connection once no call uses one: closing a connection under
+        a call on another thread (a late write of a stopping service) crashed the process."""
         with self._lock:
             self._closed = True
+            self._idle.wait_for(lambda: self._busy == 0, timeout=CLOSE_WAIT)
             conns, self._all = self._all, []
         for conn in conns:
             conn.close()

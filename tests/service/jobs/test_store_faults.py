@@ -240,3 +240,36 @@ async def test_a_job_written_while_the_service_stops_is_left_for_the_next_start(
     restarted = await make_client(data_dir=data)  # its start recovers the job
     done = await wait_for(restarted, job["jobID"])
     assert done["status"] == "successful", done
+
+
+def test_closing_waits_for_a_call_in_use_and_refuses_later_ones(tmp_path: Path) -> None:
+    # A stopping service closed the store while a callback-state write ran on another thread,
+    # and the process crashed (a segmentation fault in SQLite's COMMIT).
+    import threading
+
+    from service.jobs.store import NewJob
+
+    store = SqliteJobStore(tmp_path / "jobs.db")
+    store.create(NewJob(id="j1", process="mesh", inputs={"size": 0.1}))
+    inside, release = threading.Event(), threading.Event()
+    real = store._conn
+
+    def held_conn() -> Any:  # the write is in use until the test lets it go on
+        inside.set()
+        release.wait(10)
+        return real()
+
+    store._conn = held_conn  # type: ignore[method-assign]
+    writer = threading.Thread(target=store.set_subscriber, args=("j1", {"sent": []}))
+    writer.start()
+    assert inside.wait(10)
+    closer = threading.Thread(target=store.close)
+    closer.start()
+    closer.join(0.2)
+    assert closer.is_alive()  # it waits for the write
+    release.set()
+    writer.join(10)
+    closer.join(10)
+    assert not closer.is_alive()
+    with pytest.raises(StoreUnavailable, match="closed"):
+        store.get("j1")
