@@ -279,7 +279,7 @@ def same_field(random: int) -> None:
                   f"{row['rr_min']:7.3f}", flush=True)  # fmt: skip
     mean = {(r["case"], r["system"]): r["rr_mean"] for r in rows}
     for system in list(meshes)[1:]:
-        wins = sum(mean[case, "evomesh"] >= mean[case, system] for case, _ in mean if _ == system)
+        wins = sum(mean[case, "evomesh"] >= mean[case, s] for case, s in mean if s == system)
         print(f"evomesh's mean at least {system}'s on {wins}/{random}")
     write_rows(
         "graded_same_field",

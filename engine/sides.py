@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from typing import NamedTuple
 
 import numba as nb
 import numpy as np
@@ -74,11 +75,17 @@ def _fan(
         b = math.hypot(x - bx, y - by)
         c = math.hypot(ax - x, ay - y)
         worst, total = min(worst, q), total + q
-        # The smallest angle faces the shortest side.
-        lo, m1, m2 = (a, b, c) if a <= min(b, c) else ((b, a, c) if b <= c else (c, a, b))
-        cos = (m1 * m1 + m2 * m2 - lo * lo) / max(2.0 * m1 * m2, 1e-300)
-        smallest = min(smallest, math.acos(min(max(cos, -1.0), 1.0)))
+        smallest = min(smallest, _smallest_angle(a, b, c))
     return worst, total / sides, smallest
+
+
+@nb.njit(cache=True, inline="always")
+def _smallest_angle(a: float, b: float, c: float) -> float:
+    """The smallest angle (radians) of the triangle with sides ``a``, ``b``, ``c``: the one
+    facing the shortest side."""
+    lo, m1, m2 = (a, b, c) if a <= min(b, c) else ((b, a, c) if b <= c else (c, a, b))
+    cos = (m1 * m1 + m2 * m2 - lo * lo) / max(2.0 * m1 * m2, 1e-300)
+    return math.acos(min(max(cos, -1.0), 1.0))
 
 
 @nb.njit(cache=True, inline="always")
@@ -88,32 +95,48 @@ def _better(angle: float, worst: float, best_angle: float, best_worst: float) ->
     return angle > best_angle + tie or (angle > best_angle - tie and worst > best_worst)
 
 
+class Line(NamedTuple):
+    """Where :func:`_search_line` tries a node along a segment (a named tuple: numba takes it
+    whole): at fractions ``lo + span * i / n`` for ``i`` from ``first`` to ``last``, then
+    halving steps from the best within ``[lo, lo + span]``."""
+
+    lo: float
+    span: float
+    n: int
+    first: int
+    last: int
+
+
+#: A node on a boundary side: 31 places strictly inside it (refined steps stay inside too).
+_ON_SIDE = Line(0.0, 1.0, _EDGE_SAMPLES, 1, _EDGE_SAMPLES - 1)
+
+
 @nb.njit(cache=True)
-def _place_on_side(
-    p: FloatArray, chain: IntArray
-) -> tuple[float, float, float]:  # pragma: no cover
-    """Where on the boundary side from ``chain``'s last node to its first a node joined to
-    each side of ``chain`` makes the fan's smallest angle largest, then its worst radius ratio:
-    (the fraction along that side, the fan's worst radius ratio and its smallest angle; -inf
-    when no fan is valid)."""
+def _search_line(
+    p: FloatArray, chain: IntArray, a: int, b: int, line: Line, cap: float
+) -> tuple[float, float, float]:  # pragma: no cover - compiled
+    """Where on the segment from node ``a`` to node ``b`` a node joined to each side of the
+    chain ``chain`` makes the fan's smallest angle (radians, up to ``cap``) largest, then its
+    worst radius ratio: (the fraction from ``a``, that smallest angle, the worst; -inf when no
+    fan is valid)."""
     k = chain.shape[0]
-    ax, ay = p[chain[k - 1], 0], p[chain[k - 1], 1]
-    dx, dy = p[chain[0], 0] - ax, p[chain[0], 1] - ay
-    at, worst, smallest = 0.5, -np.inf, -np.inf
-    for i in range(1, _EDGE_SAMPLES):
-        s = i / _EDGE_SAMPLES
-        w, _, a = _fan(p, chain, ax + s * dx, ay + s * dy, k - 1)
-        if w > 0.0 and _better(a, w, smallest, worst):
-            at, worst, smallest = s, w, a
-    step = 0.5 / _EDGE_SAMPLES
+    ax, ay = p[a, 0], p[a, 1]
+    dx, dy = p[b, 0] - ax, p[b, 1] - ay
+    at, smallest, worst = 0.5, -np.inf, -np.inf
+    for i in range(line.first, line.last + 1):
+        s = line.lo + line.span * i / line.n
+        w, _, angle = _fan(p, chain, ax + s * dx, ay + s * dy, k - 1)
+        if w > 0.0 and _better(min(angle, cap), w, smallest, worst):
+            at, smallest, worst = s, min(angle, cap), w
+    step = 0.5 * line.span / line.n
     for _ in range(_HALVINGS):
         for s in (at - step, at + step):
-            if 0.0 < s < 1.0:
-                w, _, a = _fan(p, chain, ax + s * dx, ay + s * dy, k - 1)
-                if w > 0.0 and _better(a, w, smallest, worst):
-                    at, worst, smallest = s, w, a
+            if line.lo <= s <= line.lo + line.span:
+                w, _, angle = _fan(p, chain, ax + s * dx, ay + s * dy, k - 1)
+                if w > 0.0 and _better(min(angle, cap), w, smallest, worst):
+                    at, smallest, worst = s, min(angle, cap), w
         step *= 0.5
-    return at, worst, smallest
+    return at, smallest, worst
 
 
 @nb.njit(cache=True)
@@ -138,10 +161,7 @@ def _score(poly: FloatArray, i: int, m: int, j: int) -> float:  # pragma: no cov
     a = math.hypot(cx - bx, cy - by)
     b = math.hypot(ax - cx, ay - cy)
     c = math.hypot(bx - ax, by - ay)
-    lo, m1, m2 = (a, b, c) if a <= min(b, c) else ((b, a, c) if b <= c else (c, a, b))
-    cos = (m1 * m1 + m2 * m2 - lo * lo) / max(2.0 * m1 * m2, 1e-300)
-    angle = math.acos(min(max(cos, -1.0), 1.0))
-    return _ANGLE_WEIGHT * min(angle, _THIRTY) + q
+    return _ANGLE_WEIGHT * min(_smallest_angle(a, b, c), _THIRTY) + q
 
 
 @nb.njit(cache=True)
@@ -380,7 +400,9 @@ def _one_node(p: FloatArray, ring: list[int], sides: list[int]) -> list[_Split]:
     out = []
     for a in sides:
         chain = ring[a + 1 :] + ring[: a + 1]  # from the side's end round to its start
-        at, worst, smallest = _place_on_side(p, np.asarray(chain, dtype=np.int64))
+        # Along the side from its start (the chain's last node) to its end (the first).
+        links = np.asarray(chain, dtype=np.int64)
+        at, smallest, worst = _search_line(p, links, chain[-1], chain[0], _ON_SIDE, np.inf)
         xy = p[chain[-1]] + at * (p[chain[0]] - p[chain[-1]])
         k = len(chain)
         fan = np.array([[i, i + 1, k] for i in range(k - 1)], dtype=np.int64)

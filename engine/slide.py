@@ -19,14 +19,13 @@ from __future__ import annotations
 
 from collections.abc import Collection
 
-import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
 from .mesh import Mesh
 from .quality import min_angle
 from .relax import node_stars
-from .sides import _HALVINGS, _better, _corner_bound, _fan, corner_figures
+from .sides import Line, _corner_bound, _fan, _search_line, corner_figures
 
 __all__ = ["SLIDE_ROUNDS", "slide_round"]
 
@@ -35,39 +34,12 @@ IntArray = NDArray[np.int64]
 
 #: Passes of :func:`slide_round` in the mesher (a node moved changes its neighbours' stars).
 SLIDE_ROUNDS = 2
-#: Evenly spaced trial positions between the node's boundary neighbours.
-_SAMPLES = 32
 #: The node keeps at least this fraction of the span from either neighbour.
 _MARGIN = 0.05
+#: Where the node is tried: 33 evenly spaced places between those margins, then halving.
+_ALONG = Line(_MARGIN, 1.0 - 2.0 * _MARGIN, 32, 0, 32)
 #: Cross product (relative to the squared span) under which three nodes count as collinear.
 _COLLINEAR = 1e-12
-
-
-@nb.njit(cache=True)
-def _slide(
-    p: FloatArray, chain: IntArray, cap: float
-) -> tuple[float, float, float]:  # pragma: no cover - compiled
-    """Where between ``chain``'s ends a node joined to each of its sides makes the fan's
-    smallest angle (radians, up to ``cap``) largest, then its worst radius ratio: (the fraction
-    from the first end, the smallest angle, the worst)."""
-    k = chain.shape[0]
-    ax, ay = p[chain[0], 0], p[chain[0], 1]
-    dx, dy = p[chain[k - 1], 0] - ax, p[chain[k - 1], 1] - ay
-    at, smallest, worst = 0.5, -np.inf, -np.inf
-    for i in range(_SAMPLES + 1):
-        s = _MARGIN + (1.0 - 2.0 * _MARGIN) * i / _SAMPLES
-        w, _, a = _fan(p, chain, ax + s * dx, ay + s * dy, k - 1)
-        if w > 0.0 and _better(min(a, cap), w, smallest, worst):
-            at, smallest, worst = s, min(a, cap), w
-    step = 0.5 * (1.0 - 2.0 * _MARGIN) / _SAMPLES
-    for _ in range(_HALVINGS):
-        for s in (at - step, at + step):
-            if _MARGIN <= s <= 1.0 - _MARGIN:
-                w, _, a = _fan(p, chain, ax + s * dx, ay + s * dy, k - 1)
-                if w > 0.0 and _better(min(a, cap), w, smallest, worst):
-                    at, smallest, worst = s, min(a, cap), w
-        step *= 0.5
-    return at, smallest, worst
 
 
 def _link(tri: IntArray, tri_of: IntArray, v: int) -> list[int] | None:
@@ -128,7 +100,7 @@ def slide_round(
             continue  # a corner of the boundary, not a node inside a straight segment
         arr = np.asarray(chain, dtype=np.int64)
         here = _fan_here(points, arr, points[v], cap)
-        at, smallest, worst = _slide(points, arr, cap)
+        at, smallest, worst = _search_line(points, arr, chain[0], chain[-1], _ALONG, cap)
         if (smallest, worst) > here:
             points[v] = a + at * span
             moved = True

@@ -110,8 +110,8 @@ def test_warmup_compiles_every_kernel_a_job_calls() -> None:
     ga = {f"engine.ga_kernels.{k}" for k in ("ga_init", "ga_step", "accept_moves")}
     assert ga | {"engine.front.driver._run", "engine.star.all_fitness"} <= set(compiled)
     # The splits at sharp corners, which the first job with one would otherwise compile.
-    splits = {"engine.spanning._place", "engine.sides._place_on_side"}
-    assert splits | {"engine.sides._place_on_two_sides", "engine.slide._slide"} <= set(compiled)
+    splits = {"engine.spanning._place", "engine.sides._search_line"}
+    assert splits | {"engine.sides._place_on_two_sides"} <= set(compiled)
     # Jobs on another region, with every smoother and selection, compile nothing more.
     region = engine.make_region([([[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]], [])])
     for method in SMOOTHERS:
