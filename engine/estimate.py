@@ -17,12 +17,19 @@ from numpy.typing import NDArray
 
 from .boundary import Region
 from .conetree import _bound, _cone, build_boxes, slots_meeting
-from .errors import Cancelled
+from .errors import Cancelled, LimitExceeded
 from .gaps import ring_segments
+from .params import SizingParams
 from .result import ProgressFn, StopFn
 from .sizing import SizeField, SizeTuple, size_field_at
 
-__all__ = ["EQUILATERAL_AREA", "boundary_nodes", "estimate_triangles", "front_slope"]
+__all__ = [
+    "EQUILATERAL_AREA",
+    "boundary_nodes",
+    "estimate_triangles",
+    "front_slope",
+    "refuse_by_area",
+]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -446,6 +453,37 @@ def _area_integral(
     return sums
 
 
+def _area_low(region: Region, h_max: float) -> float:
+    """A lower bound on the area term of :func:`estimate_triangles` where no size exceeds
+    ``h_max``: the region's area at that size."""
+    return float(_WEIGHTS.min() * region.area / (EQUILATERAL_AREA * h_max * h_max))
+
+
+def refuse_by_area(region: Region, sizing: SizingParams, cap: int) -> None:
+    """Raise :class:`LimitExceeded` when even a mesh at the plain size everywhere (no size
+    exceeds it) has more than ``cap`` triangles: checked before the size field is built, whose
+    cost grows with the boundary's length over the size.
+
+    >>> from engine import make_region
+    >>> square = make_region([([[0, 0], [1, 0], [1, 1], [0, 1]], [])])
+    >>> try:
+    ...     refuse_by_area(square, SizingParams(size=1e-6), 1_000_000)
+    ... except LimitExceeded as exc:
+    ...     print(exc.estimate)
+    2302472873529
+    """
+    size = sizing.size if sizing.size_max is None else min(sizing.size, sizing.size_max)
+    low = _area_low(region, max(size, sizing.size_min or 0.0))
+    if low > cap:
+        least = math.ceil(low)
+        raise LimitExceeded(
+            f"the estimated number of triangles is at least {least:,} (the region's area at the "
+            f"size {size:g}), over the limit of {cap:,}; use a larger size",
+            limit=cap,
+            estimate=least,
+        )
+
+
 def estimate_triangles(
     region: Region,
     field: SizeField,
@@ -475,8 +513,7 @@ def estimate_triangles(
     progress("estimate", 0.0)
     # No size exceeds the field's plain size, so the region's area at that size is a lower bound
     # on the area term: a cap it already passes is refused before any counting.
-    h_max = max(field.size, field.size_min)
-    area_low = _WEIGHTS.min() * region.area / (EQUILATERAL_AREA * h_max * h_max)
+    area_low = _area_low(region, max(field.size, field.size_min))
     if area_low > limit:
         return math.ceil(area_low)
     a, b, _, nxt = ring_segments(region)

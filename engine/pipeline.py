@@ -14,7 +14,7 @@ from .boundary import Region
 from .collapse import collapse_edges
 from .discretize import discretize
 from .errors import Cancelled, LimitExceeded
-from .estimate import estimate_triangles
+from .estimate import estimate_triangles, refuse_by_area
 from .fitness import node_fitness
 from .front import advance_front
 from .mesh import Mesh, keeps_boundary
@@ -183,6 +183,7 @@ def mesh_region(
     t0 = time.perf_counter()
     if sizing.resample:
         region = resample_region(region, sizing).region
+    refuse_by_area(region, sizing, max_triangles)
     field = build_size_field(region, sizing, progress, should_stop)
     estimate = estimate_triangles(
         region, field, cap=max_triangles, progress=progress, should_stop=should_stop

@@ -17,6 +17,7 @@ from pyproj.exceptions import ProjError
 from shapely.geometry import mapping
 
 import engine
+from engine.estimate import refuse_by_area
 from engine.refinement import InvalidRefinement
 from engine.sizing import build_size_field
 
@@ -65,6 +66,7 @@ def estimate_or_refuse(
     if sizing.resample:
         region = engine.resample_region(region, sizing).region
     try:
+        refuse_by_area(region, sizing, cap)
         field = build_size_field(region, sizing)
     except engine.LimitExceeded as exc:
         raise InputRefused(

@@ -311,3 +311,20 @@ def test_the_point_in_region_kernels_agree_with_geos(case: tuple[Region, float],
     sub = centres[cells, None, :] + np.stack(np.meshgrid(off, off), -1).reshape(1, 16, 2)
     grid = shapely.contains_xy(shape, sub[..., 0].ravel(), sub[..., 1].ravel())
     np.testing.assert_allclose(shares, grid.reshape(-1, 16).mean(axis=1))
+
+
+def test_a_size_whose_area_alone_is_over_the_cap_is_refused_before_the_field(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # The size field's cost grows with the boundary's length over the size: at 1e-9 on the unit
+    # square it once asked for 60 GiB of gap samples before the triangle estimate could refuse.
+    import engine.pipeline
+
+    def unreachable(*args: object, **kwargs: object) -> None:
+        raise AssertionError("the size field was built")
+
+    monkeypatch.setattr(engine.pipeline, "build_size_field", unreachable)
+    square = make_region([([[0, 0], [1, 0], [1, 1], [0, 1]], [])])
+    with pytest.raises(LimitExceeded, match="at least") as info:
+        mesh_region(square, SizingParams(size=1e-9), max_triangles=1_000_000)
+    assert info.value.estimate > 10**18

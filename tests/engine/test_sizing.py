@@ -7,11 +7,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from engine import SizingParams, make_region, mesh_region, triangle_quality
+from engine import LimitExceeded, SizingParams, make_region, mesh_region, triangle_quality
 from engine.boundary import Region
 from engine.discretize import discretize
 from engine.gaps import gap_search, gap_widths, ring_segments
-from engine.sizing import GAP_FACTOR, build_size_field
+from engine.sizing import GAP_FACTOR, RESOLUTION_STEPS, build_size_field
 
 from .control_strategies import valid_regions
 from .regions import assert_conforming
@@ -116,3 +116,42 @@ def test_the_gap_search_finds_what_all_pairs_find(case: tuple[Region, float], se
     pts = search.a[seg] + t[:, None] * (search.b[seg] - search.a[seg])
     want = _facing_brute_force(region, seg, t, vertex_field(pts) / GAP_FACTOR)
     np.testing.assert_array_equal(got, want)
+
+
+def test_a_size_far_below_the_boundary_length_is_refused_before_sampling_it() -> None:
+    # 8e9 gap samples at this size: refused from the segment lengths, before any array of
+    # samples is made (the arrays once asked for 60 GiB).
+    square = make_region([([[0, 0], [1, 0], [1, 1], [0, 1]], [])])
+    with pytest.raises(LimitExceeded, match="boundary samples") as info:
+        build_size_field(square, SizingParams(size=1e-9))
+    assert info.value.estimate >= 8_000_000_000
+
+
+@pytest.mark.parametrize(("offset", "side"), [(1e9, 1e-6), (1e5, 1e-10)])
+def test_a_size_the_coordinates_cannot_resolve_is_refused_saying_where(
+    offset: float, side: float
+) -> None:
+    # A square 1e-6 wide at 1e9 meshed at 1e-7: coordinates there step by 1.2e-7, and the front
+    # once failed on coincident points (ZeroDivisionError).
+    ring = offset + side * np.array([[0, 0], [1, 0], [1, 1], [0, 1]])
+    with pytest.raises(LimitExceeded, match="resolved only to") as info:
+        mesh_region(make_region([(ring, [])]), SizingParams(size=side / 10))
+    assert info.value.estimate < RESOLUTION_STEPS
+
+
+def test_a_feature_the_coordinates_cannot_resolve_is_refused_at_its_place() -> None:
+    # The size is resolved; a hole 1e-9 from the outer ring asks for a size that is not, and
+    # the message names where.
+    ring = 1e6 + np.array([[0, 0], [1, 0], [1, 1], [0, 1]])
+    hole = 1e6 + np.array([[0.5, 0.5], [0.5, 1 - 1e-9], [0.6, 1 - 1e-9], [0.6, 0.5]])
+    with pytest.raises(LimitExceeded, match=r"near \(1000000.5, 1000001\)"):
+        build_size_field(make_region([(ring, [hole])]), SizingParams(size=0.1))
+
+
+def test_far_from_the_origin_a_resolved_size_still_meshes() -> None:
+    # 84 steps of the coordinates per edge: valid, and no worse than a few percent.
+    side = 1e-4
+    ring = 1e9 + side * np.array([[0, 0], [1, 0], [1, 1], [0, 1]])
+    mesh, _ = mesh_region(make_region([(ring, [])]), SizingParams(size=side / 10))
+    quality = triangle_quality(mesh)
+    assert quality.radius_ratio.min() > 0.8

@@ -96,6 +96,7 @@ async def test_an_estimate_over_max_triangles_is_422_saying_what_to_change(
         ({"size": 1e-200}, "/inputs/size"),  # underflows when squared
         ({"size": 1e-160}, "/inputs/size"),
         ({"size": 1e308}, "/inputs/size"),  # overflows when squared
+        ({"size": 1e-9}, "/inputs/size"),  # 2e18 triangles: refused before the size field
         ({"size": 0.1, "size_min": 1e-300}, "/inputs/size_min"),
         ({"size": 0.1, "size_max": 1e300}, "/inputs/size_max"),
         (
@@ -206,6 +207,21 @@ def test_the_region_in_a_payload_survives_a_round_trip() -> None:
 
     region = build_region(stored["parts"])
     assert np.isclose(region.area, 1.0)
+
+
+async def test_a_size_the_coordinates_cannot_resolve_is_a_422_not_a_server_error(
+    client: httpx.AsyncClient,
+) -> None:
+    # A square 1e-6 wide at 1e9 meshed at 1e-7: the job failed on an internal ZeroDivisionError.
+    ring = [[1e9 + x * 1e-6, 1e9 + y * 1e-6] for x, y in [[0, 0], [1, 0], [1, 1], [0, 1], [0, 0]]]
+    boundary = {"type": "Polygon", "coordinates": [ring]}
+    doc = assert_problem(
+        await _execute(client, {"boundary": boundary, "size": 1e-7}),
+        422,
+        "limit-exceeded",
+        "/inputs/size",
+    )
+    assert "resolved only to" in doc["detail"]
 
 
 def test_coordinates_near_the_float_limit_are_a_422_not_a_server_error() -> None:
