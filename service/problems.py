@@ -217,8 +217,19 @@ async def _handle(request: Request, exc: Exception) -> ProblemResponse:
     return response_for(problem, request.url.path)
 
 
+async def _handle_unexpected(request: Request, exc: Exception) -> ProblemResponse:
+    """An error nothing expected: a 500 problem that closes the connection. Starlette re-raises
+    such an error after the response and the server then drops the connection; saying so
+    (``Connection: close``) keeps a client from sending its next request on a dead connection
+    (a keep-alive client had it reset)."""
+    response = await _handle(request, exc)
+    response.headers["Connection"] = "close"
+    return response
+
+
 def install(app: FastAPI) -> None:
     """Register the problem handlers on ``app``."""
+    app.add_exception_handler(Exception, _handle_unexpected)
     for kind in (
         Problem,
         RequestValidationError,
@@ -231,6 +242,5 @@ def install(app: FastAPI) -> None:
         QueueFull,
         StoreUnavailable,
         StoreCorrupt,
-        Exception,
     ):
         app.add_exception_handler(kind, _handle)

@@ -1,0 +1,59 @@
+"""An unexpected error is a 500 problem that tells a keep-alive client the connection closes."""
+
+from __future__ import annotations
+
+import socket
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import httpx
+import pytest
+import uvicorn
+
+from service.app import create_app
+
+from ..conftest import make_settings
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+@pytest.fixture
+def base_url(tmp_path: Path) -> Iterator[str]:
+    """A real server on loopback whose ``/boom`` fails as no handler expects."""
+    app = create_app(make_settings(tmp_path))
+
+    def boom() -> None:
+        raise RuntimeError("nothing expected this")
+
+    app.add_api_route("/boom", boom)
+    port = _free_port()
+    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=port, log_level="critical"))
+    thread = threading.Thread(target=server.run, daemon=True)
+    thread.start()
+    deadline = time.monotonic() + 30
+    while not server.started:
+        assert thread.is_alive(), "the server did not start"
+        assert time.monotonic() < deadline, "the server did not start in 30 s"
+        time.sleep(0.02)
+    yield f"http://127.0.0.1:{port}"
+    server.should_exit = True
+    thread.join(30)
+
+
+def test_an_unexpected_error_closes_the_connection_and_the_next_request_works(
+    base_url: str,
+) -> None:
+    with httpx.Client(base_url=base_url) as client:
+        for _ in range(5):  # the server drops the connection after each: say so every time
+            r = client.get("/boom")
+            assert r.status_code == 500
+            assert r.headers["content-type"] == "application/problem+json"
+            assert r.json()["type"] == "urn:evomesh:problem:internal-error"
+            assert r.headers["connection"] == "close"
+            assert client.get("/processes").status_code == 200
