@@ -51,7 +51,11 @@ async def test_admission_passes_the_triangle_limit_as_the_cap(
         return estimate(*args, cap=cap, **kwargs)
 
     monkeypatch.setattr(engine, "estimate_triangles", spy)
-    r = await _execute(limited, {"boundary": SQUARE, "size": 1e-4, "smoothing": NONE})
+    # The square's area at the size is under the cap (that alone is refused before the size
+    # field, see engine.estimate.refuse_by_area); the refinement takes the estimate over it.
+    point = {"geometry": {"type": "Point", "coordinates": [0.5, 0.5]}, "size": 1e-4}
+    inputs = {"boundary": SQUARE, "size": 0.05, "refinements": [point], "smoothing": NONE}
+    r = await _execute(limited, inputs)
     doc = assert_problem(r, 422, "limit-exceeded", "/inputs/size")
     assert "triangles" in doc["detail"]
     assert caps == [1000]
