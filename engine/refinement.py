@@ -1,17 +1,19 @@
 """Refinements: ask for size ``s`` on and near a geometry, growing away from it at its own rate
 (the job's ``growth`` unless the refinement gives one).
 
-A refinement becomes features of the size field (:mod:`engine.sizing`): points sampled on the
-geometry every ``s / 2`` (on lines and polygon edges) and on an ``s / 2`` grid inside polygons,
-each asking for ``s`` and growing at the refinement's rate. The field is the lower envelope of
-their cones and the region's own, so refinements combine with the region's sizing (and with
-each other) by the minimum; between samples the envelope is within ``1 + (growth - 1) / 4`` of
-``s``.
+A refinement becomes features of the size field (:mod:`engine.sizing`): the segments of its
+lines and polygon edges (a point is a segment of no length), each asking for ``s`` all along it,
+and an ``s / 2`` grid of points inside polygons; each grows at the refinement's rate. The field
+is the lower envelope of their cones and the region's own, so refinements combine with the
+region's sizing (and with each other) by the minimum; inside a polygon, between grid points, the
+envelope is within ``1 + (growth - 1) / 4`` of ``s``. A line costs a feature per segment
+whatever its size (sampled every ``s / 2``, a line at ``s = 1e-7`` once took a minute and
+gigabytes before the triangle estimate could refuse it).
 
->>> r = Refinement({"type": "LineString", "coordinates": [[0, 0], [1, 0]]}, size=0.25, growth=1.1)
->>> xy, h, slope = refinement_features([r], growth=1.2)
->>> xy[:, 0].tolist(), set(h.tolist()), set(np.round(slope, 6).tolist())
-([0.0, 0.125, 0.25, 0.375, 0.5, 0.625, 0.75, 0.875, 1.0], {0.25}, {0.1})
+>>> r = Refinement({"type": "LineString", "coordinates": [[0, 0], [1, 0], [1, 1]]}, 0.25, 1.1)
+>>> start, end, h, slope = refinement_features([r], growth=1.2)
+>>> start.tolist(), end.tolist(), set(h.tolist()), set(np.round(slope, 6).tolist())
+([[0.0, 0.0], [1.0, 0.0]], [[1.0, 0.0], [1.0, 1.0]], {0.25}, {0.1})
 """
 
 from __future__ import annotations
@@ -32,9 +34,10 @@ __all__ = ["InvalidRefinement", "Refinement", "refinement_features"]
 
 FloatArray = NDArray[np.float64]
 
-#: Samples per size along lines and across polygons (2: the envelope stays within 5% of s).
+#: Grid points per size across polygons (2: the envelope stays within 5% of s).
 _SAMPLES_PER_SIZE = 2.0
-#: Refinement samples beyond this are refused: the mesh would be far larger anyway.
+#: Grid points inside a refinement polygon beyond this are refused: the mesh would be far
+#: larger anyway.
 MAX_SAMPLES = 4_000_000
 
 
@@ -76,39 +79,55 @@ class Refinement:
         return geom
 
 
-def _samples(geom: shapely.Geometry, step: float) -> FloatArray:
-    """Points on ``geom`` no further than ``step`` apart, and a ``step`` grid inside its areas."""
-    pts = [shapely.get_coordinates(geom)]
-    if geom.length > 0:  # a zero-length line is its point (GEOS cannot segmentize it)
-        lines = shapely.segmentize(geom.boundary if geom.area > 0 else geom, step)
-        pts.append(shapely.get_coordinates(lines))
-    if geom.area > 0:
-        x0, y0, x1, y1 = geom.bounds
-        nx, ny = math.ceil((x1 - x0) / step) + 1, math.ceil((y1 - y0) / step) + 1
-        if nx * ny > MAX_SAMPLES:
-            raise LimitExceeded(
-                f"a refinement polygon needs {nx * ny} samples at size {step * 2:g}",
-                limit=MAX_SAMPLES,
-                estimate=nx * ny,
-            )
-        gx, gy = np.meshgrid(x0 + step * np.arange(nx), y0 + step * np.arange(ny))
-        inside = shapely.contains_xy(geom, gx.ravel(), gy.ravel())
-        pts.append(np.c_[gx.ravel()[inside], gy.ravel()[inside]])
-    return np.unique(np.concatenate(pts), axis=0)
+def _linework(geom: shapely.Geometry) -> tuple[FloatArray, FloatArray]:
+    """Starts and ends of the segments of ``geom``'s lines and polygon rings; a point (or a line
+    of no length) is a segment from itself to itself."""
+    if isinstance(geom, shapely.geometry.base.BaseMultipartGeometry):
+        parts = [_linework(g) for g in geom.geoms] or [(np.empty((0, 2)), np.empty((0, 2)))]
+        return np.concatenate([a for a, _ in parts]), np.concatenate([b for _, b in parts])
+    if isinstance(geom, shapely.Polygon):
+        rings = [_linework(r) for r in (geom.exterior, *geom.interiors)]
+        return np.concatenate([a for a, _ in rings]), np.concatenate([b for _, b in rings])
+    xy = shapely.get_coordinates(geom)
+    if len(xy) < 2:
+        return xy, xy
+    return xy[:-1], xy[1:]
+
+
+def _grid(geom: shapely.Geometry, step: float) -> FloatArray:
+    """A ``step`` grid inside ``geom``'s areas (none for points and lines)."""
+    if geom.area <= 0:
+        return np.empty((0, 2))
+    x0, y0, x1, y1 = geom.bounds
+    nx, ny = math.ceil((x1 - x0) / step) + 1, math.ceil((y1 - y0) / step) + 1
+    if nx * ny > MAX_SAMPLES:
+        raise LimitExceeded(
+            f"a refinement polygon needs {nx * ny} samples at size {step * 2:g}",
+            limit=MAX_SAMPLES,
+            estimate=nx * ny,
+        )
+    gx, gy = np.meshgrid(x0 + step * np.arange(nx), y0 + step * np.arange(ny))
+    inside = shapely.contains_xy(geom, gx.ravel(), gy.ravel())
+    return np.c_[gx.ravel()[inside], gy.ravel()[inside]]
 
 
 def refinement_features(
     refinements: Sequence[Refinement], growth: float
-) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Feature points, the size each asks for and the slope (``growth - 1``) each grows at
-    (``growth``: the job's, for refinements without their own), for
-    :func:`engine.sizing.build_size_field`."""
-    xy: list[FloatArray] = [np.empty((0, 2))]
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Feature segments (starts and ends; a point is a segment of no length), the size each asks
+    for and the slope (``growth - 1``) each grows at (``growth``: the job's, for refinements
+    without their own), for :func:`engine.sizing.build_size_field`."""
+    start: list[FloatArray] = [np.empty((0, 2))]
+    end: list[FloatArray] = [np.empty((0, 2))]
     h: list[FloatArray] = [np.empty(0)]
     slope: list[FloatArray] = [np.empty(0)]
     for r in refinements:
-        pts = _samples(r.shape(), r.size / _SAMPLES_PER_SIZE)
-        xy.append(pts)
-        h.append(np.full(len(pts), float(r.size)))
-        slope.append(np.full(len(pts), (r.growth or growth) - 1.0))
-    return np.concatenate(xy), np.concatenate(h), np.concatenate(slope)
+        geom = r.shape()
+        a, b = _linework(geom)
+        inside = _grid(geom, r.size / _SAMPLES_PER_SIZE)
+        start += [a, inside]
+        end += [b, inside]
+        count = len(a) + len(inside)
+        h.append(np.full(count, float(r.size)))
+        slope.append(np.full(count, (r.growth or growth) - 1.0))
+    return np.concatenate(start), np.concatenate(end), np.concatenate(h), np.concatenate(slope)

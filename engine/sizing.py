@@ -282,12 +282,12 @@ def build_size_field(
         raise Cancelled("stopped while sizing")
     ga, gb, g0, g1, samples = _gap_features(region, vertex_field, should_stop)
     progress("sizing", 0.8)
-    # Refinements are point features too, each growing at its own rate.
-    rxy, rh, rslope = refinement_features(params.refinements, params.growth)
+    # Refinements are features too (segments, and points inside polygons), each at its own rate.
+    ra, rb, rh, rslope = refinement_features(params.refinements, params.growth)
     if len(g0) == 0 and len(rh) == 0 and size_min == 0.0:
         progress("sizing", 1.0)
         return _resolved(region, SizeField(vertex_field.tree, samples))  # the same features
-    fa, fb = np.concatenate([vxy, ga, rxy]), np.concatenate([vxy, gb, rxy])
+    fa, fb = np.concatenate([vxy, ga, ra]), np.concatenate([vxy, gb, rb])
     ha = np.maximum(np.concatenate([vh, g0, rh]), size_min)
     hb = np.maximum(np.concatenate([vh, g1, rh]), size_min)
     slopes = np.concatenate([np.full(len(vh) + len(g0), slope), rslope])
