@@ -13,6 +13,7 @@ from typing import NamedTuple
 
 import numba as nb
 import numpy as np
+import shapely
 from numpy.typing import NDArray
 
 from .boundary import Region
@@ -461,8 +462,9 @@ def _area_low(region: Region, h_max: float) -> float:
 
 def refuse_by_area(region: Region, sizing: SizingParams, cap: int) -> None:
     """Raise :class:`LimitExceeded` when even a mesh at the plain size everywhere (no size
-    exceeds it) has more than ``cap`` triangles: checked before the size field is built, whose
-    cost grows with the boundary's length over the size.
+    exceeds it), or inside one refinement polygon at its size, has more than ``cap``
+    triangles: checked before the size field is built, whose cost grows with the boundary's
+    length (and a refinement polygon's height) over the size.
 
     >>> from engine import make_region
     >>> square = make_region([([[0, 0], [1, 0], [1, 1], [0, 1]], [])])
@@ -474,11 +476,18 @@ def refuse_by_area(region: Region, sizing: SizingParams, cap: int) -> None:
     """
     size = sizing.size if sizing.size_max is None else min(sizing.size, sizing.size_max)
     low = _area_low(region, max(size, sizing.size_min or 0.0))
+    what = f"the region's area at the size {size:g}"
+    shape = region.to_shapely() if any(r.shape().area > 0 for r in sizing.refinements) else None
+    for i, r in enumerate(sizing.refinements):  # a refinement polygon's area at its size, alone
+        if shape is not None and r.shape().area > 0:
+            inside = float(shapely.intersection(r.shape(), shape).area)
+            if (own := _WEIGHTS.min() * inside / (EQUILATERAL_AREA * r.size * r.size)) > low:
+                low, what = own, f"refinement {i}'s area at its size {r.size:g}"
     if low > cap:
         least = math.ceil(low)
         raise LimitExceeded(
-            f"the estimated number of triangles is at least {least:,} (the region's area at the "
-            f"size {size:g}), over the limit of {cap:,}; use a larger size",
+            f"the estimated number of triangles is at least {least:,} ({what}), over the limit "
+            f"of {cap:,}; use a larger size",
             limit=cap,
             estimate=least,
         )

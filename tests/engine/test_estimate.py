@@ -328,3 +328,22 @@ def test_a_size_whose_area_alone_is_over_the_cap_is_refused_before_the_field(
     with pytest.raises(LimitExceeded, match="at least") as info:
         mesh_region(square, SizingParams(size=1e-9), max_triangles=1_000_000)
     assert info.value.estimate > 10**18
+
+
+def test_a_refinement_polygon_whose_area_alone_is_over_the_cap_is_refused_before_the_field(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import engine.pipeline
+    from engine.refinement import Refinement
+
+    def unreachable(*args: object, **kwargs: object) -> None:
+        raise AssertionError("the size field was built")
+
+    monkeypatch.setattr(engine.pipeline, "build_size_field", unreachable)
+    square = make_region([([[0, 0], [1, 0], [1, 1], [0, 1]], [])])
+    # Half of it lies outside the region: only the inside counts (0.25 at 1e-3: 575,000).
+    box = {"type": "Polygon", "coordinates": [[[0.5, 0], [1.5, 0], [1.5, 0.5], [0.5, 0.5]]]}
+    sizing = SizingParams(size=0.1, refinements=(Refinement(box, 1e-3),))
+    with pytest.raises(LimitExceeded, match="refinement 0's area") as info:
+        mesh_region(square, sizing, max_triangles=500_000)
+    assert 500_000 < info.value.estimate < 600_000
