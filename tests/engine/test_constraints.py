@@ -13,7 +13,13 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from engine import PipelineParams, Region, SizingParams, SmoothingParams, make_region, tag_mesh
-from engine.constraints import Constrained, InvalidConstraint, PinnedMesh, mesh_with_constraints
+from engine.constraints import (
+    Constrained,
+    InvalidConstraint,
+    PinnedMesh,
+    _close_pair,
+    mesh_with_constraints,
+)
 from engine.mesh import edge_table, validate_mesh
 from engine.refinement import Refinement
 
@@ -255,3 +261,34 @@ def test_held_edges_and_nodes_survive_valence_regularisation(seed: int, share: f
         assert np.array_equal(final.points[pinned], mesh.points[pinned])
         validate_mesh(final.points, final.triangles)
     assert set(result.timings) == {"boundary", "mesh", "swap", "smooth", "total"}
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.integers(2, 60),
+    st.floats(1e-3, 0.5),
+    st.integers(0, 2**32 - 1),
+    st.sampled_from([1.0, 1e-6, 1e6]),
+)
+def test_the_close_pair_grid_finds_a_pair_exactly_when_brute_force_does(
+    n: int, near: float, seed: int, scale: float
+) -> None:
+    # Clustered points, so that both outcomes occur; at any scale of coordinates.
+    rng = np.random.default_rng(seed)
+    pts = scale * (rng.uniform(0, 1, (3, 2))[rng.integers(0, 3, n)] + rng.normal(0, 0.2, (n, 2)))
+    d = np.hypot(*(pts[:, None] - pts[None]).transpose(2, 0, 1))
+    i, j = np.triu_indices(n, 1)
+    got = _close_pair(pts, near * scale)
+    if not (d[i, j] <= near * scale).any():
+        assert got is None
+    else:
+        assert got is not None
+        assert got[0] < got[1]
+        assert d[got] <= near * scale * (1 + 1e-12)
+
+
+def test_the_close_pair_of_a_dense_line_is_its_first() -> None:
+    # 200,000 points 1e-6 apart on a line: a pair within 0.01 for every point, found on the grid
+    # without listing them (every pair within 0.01 from an R-tree is 4e9 pairs).
+    pts = np.c_[np.arange(200_000) * 1e-6, np.zeros(200_000)]
+    assert _close_pair(pts, 0.01) == (0, 1)
