@@ -35,6 +35,7 @@ __all__ = [
     "estimate_subdomains",
     "job_region",
     "local_payload",
+    "refinement_vertices",
     "refinements_of",
     "run_mesh",
     "stored_tagging",
@@ -232,17 +233,28 @@ def checked_refinements(
     return out
 
 
+def refinement_vertices(refinements: Sequence[Mapping[str, Any]]) -> int:
+    """The vertices of refinements as :func:`checked_refinements` keeps them."""
+    return sum(
+        int(shapely.get_num_coordinates(shapely.geometry.shape(r["geometry"]))) for r in refinements
+    )
+
+
 def checked_constraints(
     obj: Any,
     region: engine.Region,
     projection: Projection | None,
     at: str,
     densify: float | None = None,
+    vertices: int = 0,
+    limit: int | None = None,
 ) -> dict[str, Any]:
     """The constraints as a job keeps them: ``geometries`` (plain GeoJSON in the meshing plane
     of ``region``: lon/lat ones projected as the region is, lines split at ``densify``) and
     each one's ``names`` (its Feature's ``name``); a 422 at the faulty one when the engine's own
-    checks (kind of geometry, inside the region, which may be subdomains) refuse it."""
+    checks (kind of geometry, inside the region, which may be subdomains) refuse it, and at the
+    one whose vertices take the count past ``limit`` (counting from ``vertices``: the
+    boundary's and the refinements')."""
     if obj is None:
         return {"geometries": [], "names": []}
     if isinstance(obj, dict) and obj.get("type") == "FeatureCollection":
@@ -276,6 +288,15 @@ def checked_constraints(
         except (AttributeError, KeyError, TypeError, ValueError, shapely.errors.ShapelyError):
             plane.append(g)  # not a geometry: the engine's check below names it
             continue
+        vertices += int(shapely.get_num_coordinates(shape))
+        if limit is not None and vertices > limit:
+            raise InputRefused(
+                f"the boundary's, the refinements' and the constraints' vertices are over the "
+                f"limit of {limit:,}",
+                kind="limit-exceeded",
+                title="Input over a limit",
+                pointer=ptr,
+            )
         if projection is not None and projection.geographic:
             # A lon/lat position on a ring's edge lands off its chord in the plane by a
             # fraction of a metre: put it on the ring, as it was in the input.

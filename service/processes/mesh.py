@@ -24,6 +24,7 @@ from ..control import (
     estimate_or_refuse,
     estimate_subdomains,
     job_region,
+    refinement_vertices,
     refinements_of,
     run_mesh,
     stored_tagging,
@@ -366,7 +367,13 @@ def prepare(inputs: MeshInputs, settings: Settings, where: Where) -> tuple[MeshR
         tagging=tagging,
         refinements=refinements,
         constraints=checked_constraints(
-            inputs.constraints, parsed.region, parsed.projection, where("constraints"), densify
+            inputs.constraints,
+            parsed.region,
+            parsed.projection,
+            where("constraints"),
+            densify,
+            parsed.region.n_vertices + refinement_vertices(refinements),
+            settings.max_vertices,
         ),
         subdomains=None if sizes is None else {"sizes": sizes},
     )

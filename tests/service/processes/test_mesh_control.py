@@ -201,6 +201,25 @@ async def test_bad_refinements_are_located_422s(limited: httpx.AsyncClient) -> N
 DAM = {"type": "LineString", "coordinates": [[0.2, 0.3], [0.8, 0.6]]}
 
 
+async def test_constraint_vertices_count_against_the_vertex_limit(
+    limited: httpx.AsyncClient,
+) -> None:
+    # Counted with the boundary's and the refinements' (5,000 in all here); before, a
+    # constraint had no limit but the body's size, a million vertices.
+    point = {"geometry": {"type": "Point", "coordinates": [0.5, 0.5]}, "size": 0.1}
+    fine = {"type": "LineString", "coordinates": [[0.1 + 0.8 * i / 4990, 0.5] for i in range(4990)]}
+    over = {"type": "LineString", "coordinates": [[0.1 + 0.8 * i / 4996, 0.3] for i in range(4996)]}
+    base = {"boundary": SQUARE, "size": 0.2, "smoothing": NONE, "refinements": [point]}
+    features = [{"type": "Feature", "properties": {}, "geometry": g} for g in (DAM, over)]
+    constraints = {"type": "FeatureCollection", "features": features}
+    r = await _execute(limited, {**base, "constraints": constraints})
+    doc = assert_problem(r, 422, "limit-exceeded", "/inputs/constraints/features/1/geometry")
+    assert "constraints' vertices" in doc["detail"]
+    # 4 boundary + 1 refinement + 4,990: within the limit, so the job is accepted.
+    r = await _execute(limited, {**base, "constraints": fine})
+    assert r.status_code == 201
+
+
 async def test_constraints_become_tagged_mesh_edges_and_nodes(client: httpx.AsyncClient) -> None:
     constraints = {
         "type": "FeatureCollection",
