@@ -486,8 +486,8 @@ def refuse_by_area(region: Region, sizing: SizingParams, cap: int) -> None:
     if low > cap:
         least = math.ceil(low)
         raise LimitExceeded(
-            f"the estimated number of triangles is at least {least:,} ({what}), over the limit "
-            f"of {cap:,}; use a larger size",
+            f"the estimated number of triangles is at least {least} ({what}), over the limit "
+            f"of {cap}; use a larger size",
             limit=cap,
             estimate=least,
         )
