@@ -8,6 +8,7 @@ from typing import Self, TypeVar
 
 import numba
 import numpy as np
+import shapely
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import InvalidMesh
@@ -223,7 +224,8 @@ def validate_mesh(points: ArrayLike, triangles: ArrayLike, *, area_tol: float = 
     Raises :class:`InvalidMesh` naming the first offending element when the arrays have the wrong
     shape, hold NaN/inf, index out of range, repeat a vertex in a triangle, hold an inverted or
     degenerate triangle, share an edge between more than two triangles (or two with the same
-    orientation), or fold over an interior vertex.
+    orientation), fold over an interior vertex, or overlap along its boundary (two boundary
+    edges meeting other than at a shared end: a triangle laid over others).
 
     >>> validate_mesh([[0, 0], [1, 0], [0, 1]], [[0, 2, 1]])
     Traceback (most recent call last):
@@ -287,6 +289,7 @@ def validate_mesh(points: ArrayLike, triangles: ArrayLike, *, area_tol: float = 
         raise InvalidMesh("two triangles traverse the same edge in the same direction")
     mesh = Mesh(pts, tri)
     _check_no_fold(mesh)
+    _check_boundary_simple(mesh)
     return mesh
 
 
@@ -308,3 +311,106 @@ def _check_no_fold(mesh: Mesh) -> None:
             f"{np.degrees(angle_sum[node]):.1f} degrees, not 360)",
             point=node,
         )
+
+
+def _check_boundary_simple(mesh: Mesh) -> None:
+    """No two boundary edges cross, nor run along each other in the same direction, and no
+    piece of the mesh lies inside another: with no fold at an interior vertex
+    (:func:`_check_no_fold`) and counter-clockwise triangles, that is where triangles laid over
+    others show (a triangle spanning a grid's corners: its edges, all on the boundary, run along
+    the grid's bottom and cross its inside). Pieces that abut (their boundary edges along each
+    other in opposite directions, matching or not) or touch at a point are fine. O(n log n)
+    through R-trees of the boundary edges and of the triangles."""
+    edges = mesh.boundary_edges
+    if len(edges) < 2:
+        return
+    p = mesh.points
+    a0, a1 = p[edges[:, 0]], p[edges[:, 1]]
+    segments = shapely.linestrings(np.stack([a0, a1], axis=1))
+    i, j = shapely.STRtree(segments).query(segments, "intersects")
+    i, j = i[i < j], j[i < j]
+    u, v = a1[i] - a0[i], a1[j] - a0[j]
+    scale = np.hypot(*u.T) * np.hypot(*v.T)
+
+    def side(o: FloatArray, d: FloatArray, q: FloatArray) -> FloatArray:
+        """Which side of the line o + t d the points q are (0 within rounding)."""
+        cross = d[:, 0] * (q[:, 1] - o[:, 1]) - d[:, 1] * (q[:, 0] - o[:, 0])
+        return np.where(np.abs(cross) <= 1e-12 * scale, 0.0, np.sign(cross))
+
+    s1, s2 = side(a0[i], u, a0[j]), side(a0[i], u, a1[j])
+    s3, s4 = side(a0[j], v, a0[i]), side(a0[j], v, a1[i])
+    crossing = (s1 * s2 < 0) & (s3 * s4 < 0)
+    # Collinear: the overlap of their spans along the first, in the same direction.
+    collinear = (s1 == 0) & (s2 == 0)
+    length = np.hypot(*u.T)
+    along = (
+        np.stack([((a0[j] - a0[i]) * u).sum(1), ((a1[j] - a0[i]) * u).sum(1)], 1) / length[:, None]
+    )
+    overlap = np.minimum(length, along.max(1)) - np.maximum(0.0, along.min(1))
+    same_way = (u * v).sum(1) > 0
+    bad = np.flatnonzero(crossing | (collinear & same_way & (overlap > 1e-9 * length)))
+    if bad.size:
+        e = edges[int(i[bad[0]])]
+        raise InvalidMesh(
+            f"boundary edge ({e[0]}, {e[1]}) crosses or runs along another: triangles overlap",
+            point=int(e[0]),
+        )
+    _check_pieces_apart(mesh)
+
+
+def _check_pieces_apart(mesh: Mesh) -> None:
+    """No piece of the mesh (triangles joined by edges) lies inside another's triangles."""
+    label = _pieces(mesh)
+    if label.max(initial=0) == 0:
+        return
+    first = np.unique(label, return_index=True)[1]
+    # One node of each piece, and a point just inside its first triangle (a node of a piece
+    # abutting another lies on that one's boundary).
+    tri = mesh.triangles[first]
+    probe = shapely.points(mesh.points[tri].mean(axis=1))
+    triangles = shapely.polygons(mesh.points[mesh.triangles])
+    k, t = shapely.STRtree(triangles).query(probe, "within")
+    inside = np.flatnonzero(label[t] != label[first[k]])
+    if inside.size:
+        node = int(mesh.triangles[first[k[inside[0]]], 0])
+        raise InvalidMesh(
+            f"a piece of the mesh (with point {node}) lies over another piece's triangles",
+            point=node,
+        )
+
+
+def _pieces(mesh: Mesh) -> IntArray:
+    """A label per triangle: the piece (triangles joined by shared edges) it belongs to."""
+    _, _, edge_of = edge_table(mesh.triangles)
+    flat = edge_of.ravel()
+    order = np.argsort(flat, kind="stable")
+    twin = np.flatnonzero(flat[order[:-1]] == flat[order[1:]])
+    return _union_find(order[twin] // 3, order[twin + 1] // 3, mesh.n_triangles)
+
+
+@numba.njit(cache=True)
+def _union_find(a: IntArray, b: IntArray, n: int) -> IntArray:  # pragma: no cover - compiled
+    """Labels 0.. of the classes of ``n`` items joined by the pairs (a[k], b[k])."""
+    parent = np.arange(n)
+    for k in range(len(a)):
+        x, y = a[k], b[k]
+        while parent[x] != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        while parent[y] != y:
+            parent[y] = parent[parent[y]]
+            y = parent[y]
+        if x != y:
+            parent[max(x, y)] = min(x, y)
+    label = np.empty(n, dtype=np.int64)
+    count = 0
+    for x in range(n):
+        root = x
+        while parent[root] != root:
+            root = parent[root]
+        if root == x:
+            label[x] = count
+            count += 1
+        else:
+            label[x] = label[root]
+    return label

@@ -17,7 +17,7 @@ from .errors import Cancelled, LimitExceeded
 from .estimate import estimate_triangles, refuse_by_area
 from .fitness import node_fitness
 from .front import advance_front
-from .mesh import Mesh, keeps_boundary
+from .mesh import Mesh, keeps_boundary, validate_mesh
 from .params import PipelineParams, SizingParams, SmoothingParams
 from .quality import shape_quality, summarize, triangle_quality
 from .relax import relax, relax_mean
@@ -393,7 +393,8 @@ def warmup() -> tuple[str, ...]:
     The GA runs with ``selection="all"``: the tiny mesh has no poor triangle, and with the
     default selection the GA's kernels would be left for the first job to compile. A 37-degree
     spike whose legs end at input vertices at unequal distances is meshed too: its corner gets
-    an interior node and nodes on its sides (:mod:`engine.spanning`, :mod:`engine.sides`).
+    an interior node and nodes on its sides (:mod:`engine.spanning`, :mod:`engine.sides`); its
+    mesh is validated as a smooth job's input is.
     """
     from .boundary import make_region
 
@@ -407,5 +408,6 @@ def warmup() -> tuple[str, ...]:
         mesh_then_smooth(region, PipelineParams(SizingParams(0.2), smoothing=smoothing))
     spike = [[0.0, 0.0], [0.23, -0.077], [0.23, -0.5], [1.0, -0.5], [1.0, 0.5]]
     spike += [[0.265, 0.5], [0.265, 0.089]]
-    mesh_region(make_region([(spike, [])]), SizingParams(0.2))
+    mesh, _ = mesh_region(make_region([(spike, [])]), SizingParams(0.2))
+    validate_mesh(mesh.points, mesh.triangles)  # what a smooth or quality job checks first
     return tuple(sorted(name for name, count in compiled_kernels().items() if count))

@@ -119,5 +119,8 @@ def test_warmup_compiles_every_kernel_a_job_calls() -> None:
             smoothing = SmoothingParams(method=method, population=10, generations=3,
                                         max_sweeps=2, selection=selection)  # fmt: skip
             params = engine.PipelineParams(engine.SizingParams(0.15), smoothing=smoothing)
-            engine.mesh_then_smooth(region, params, np.random.default_rng(1))
+            result = engine.mesh_then_smooth(region, params, np.random.default_rng(1))
+    # A smooth or quality job's input check: its pieces (engine.mesh._union_find) included.
+    validate_mesh(result.smoothed.mesh.points, result.smoothed.mesh.triangles)
+    assert "engine.mesh._union_find" in compiled
     assert compiled_kernels() == counts

@@ -106,6 +106,13 @@ BAD_MESHES = {
         '{"points": [[0, 0], [1, 0], [NaN, 1]], "triangles": [[0, 1, 2]]}',
         "non-finite|finite number",
     ),
+    "overlapping": (  # a 3 x 3 grid and a triangle over its lower right half
+        {"points": [[0, 0], [0.5, 0], [1, 0], [0, 0.5], [0.5, 0.5], [1, 0.5], [0, 1], [0.5, 1],
+                    [1, 1]],
+         "triangles": [[0, 1, 4], [1, 2, 5], [3, 4, 7], [4, 5, 8], [0, 4, 3], [1, 5, 4],
+                       [3, 7, 6], [4, 8, 7], [0, 2, 8]]},
+        "overlap",
+    ),
     "missing triangles": ({"points": [[0, 0], [1, 0], [0, 1]]}, "triangles"),
     "not json": ("{points: oops", "Expecting"),
 }  # fmt: skip
