@@ -51,6 +51,9 @@ _COMPASS_ITERATIONS = 10
 #: Edges whose best start (an end or the midpoint) is this far below the worst quality around
 #: them now are not searched further: the compass search never gained that much where measured.
 _HOPELESS = 0.3
+#: The compass directions (the values ``math.cos(d * pi / 4)`` and ``math.sin`` give).
+_DX = np.array([math.cos(d * math.pi / 4.0) for d in range(8)])
+_DY = np.array([math.sin(d * math.pi / 4.0) for d in range(8)])
 
 
 @nb.njit(cache=True)
@@ -133,7 +136,7 @@ def _linked(t: IntArray, start: IntArray, tri_of: IntArray, a: int, b: int) -> b
     return common == 2
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, parallel=True)
 def _evaluate(
     p: FloatArray,
     t: IntArray,
@@ -148,56 +151,64 @@ def _evaluate(
 
     A boundary node is always the kept one and stays put; otherwise the merged node goes to the
     best of the edge's ends and midpoint, refined by a compass search. -inf marks an edge that
-    cannot collapse.
+    cannot collapse. Edges are judged apart (each with its own scratch), in parallel: the
+    outcome does not depend on the number of threads.
     """
     c = len(ends)
-    # The compass directions, once (the same values as computed at each step).
-    dx = np.array([math.cos(d * math.pi / 4.0) for d in range(8)])
-    dy = np.array([math.sin(d * math.pi / 4.0) for d in range(8)])
     before = np.full(c, np.inf)
     after = np.full(c, -np.inf)
     pos = np.zeros((c, 2))
     most = 0
     for v in range(len(start) - 1):
         most = max(most, start[v + 1] - start[v])
-    xy = np.empty((2 * most, 6))
-    mover = np.empty(2 * most, dtype=np.int64)
-    for i in range(c):
-        a, b = ends[i, 0], ends[i, 1]
-        for v in (a, b):
-            for k in range(start[v], start[v + 1]):
-                before[i] = min(before[i], tq[tri_of[k]])
-        if not _linked(t, start, tri_of, a, b):
-            continue
-        count = _gather(p, t, start, tri_of, a, b, xy, mover)
-        if fixed[a]:
-            bx, by = p[a, 0], p[a, 1]
-            best = _merged_worst(xy, mover, count, bx, by, -np.inf)
-        else:
-            bx, by, best = p[a, 0], p[a, 1], -np.inf
-            for s in (0.0, 0.5, 1.0):
-                x = p[a, 0] + s * (p[b, 0] - p[a, 0])
-                y = p[a, 1] + s * (p[b, 1] - p[a, 1])
-                w = _merged_worst(xy, mover, count, x, y, best)
-                if w > best:
-                    bx, by, best = x, y, w
-            step = math.hypot(p[b, 0] - p[a, 0], p[b, 1] - p[a, 1]) / 2.0
-            iterations = _COMPASS_ITERATIONS if best > before[i] - _HOPELESS else 0
-            for _ in range(iterations):
-                improved = False
-                nx, ny = bx, by
-                for d in range(8):
-                    x, y = bx + step * dx[d], by + step * dy[d]
-                    w = _merged_worst(xy, mover, count, x, y, best)
-                    if w > best:
-                        best, nx, ny, improved = w, x, y, True
-                if improved:
-                    bx, by = nx, ny
-                else:
-                    step *= 0.5
-        after[i] = best
-        pos[i, 0], pos[i, 1] = bx, by
+    for i in nb.prange(c):
+        xy = np.empty((2 * most, 6))
+        mover = np.empty(2 * most, dtype=np.int64)
+        before[i], after[i], pos[i, 0], pos[i, 1] = _evaluate_edge(
+            p, t, fixed, start, tri_of, ends[i, 0], ends[i, 1], tq, xy, mover
+        )
     return before, after, pos
+
+
+@nb.njit(cache=True)
+def _evaluate_edge(
+    p: FloatArray, t: IntArray, fixed: BoolArray, start: IntArray, tri_of: IntArray, a: int,
+    b: int, tq: FloatArray, xy: FloatArray, mover: IntArray,
+) -> tuple[float, float, float, float]:  # fmt: skip  # pragma: no cover - compiled
+    """One edge of :func:`_evaluate`: (worst now, worst after, x, y); ``xy`` and ``mover`` are
+    scratch for :func:`_gather`."""
+    before = np.inf
+    for v in (a, b):
+        for k in range(start[v], start[v + 1]):
+            before = min(before, tq[tri_of[k]])
+    if not _linked(t, start, tri_of, a, b):
+        return before, -np.inf, 0.0, 0.0
+    count = _gather(p, t, start, tri_of, a, b, xy, mover)
+    if fixed[a]:
+        bx, by = p[a, 0], p[a, 1]
+        return before, _merged_worst(xy, mover, count, bx, by, -np.inf), bx, by
+    bx, by, best = p[a, 0], p[a, 1], -np.inf
+    for s in (0.0, 0.5, 1.0):
+        x = p[a, 0] + s * (p[b, 0] - p[a, 0])
+        y = p[a, 1] + s * (p[b, 1] - p[a, 1])
+        w = _merged_worst(xy, mover, count, x, y, best)
+        if w > best:
+            bx, by, best = x, y, w
+    step = math.hypot(p[b, 0] - p[a, 0], p[b, 1] - p[a, 1]) / 2.0
+    iterations = _COMPASS_ITERATIONS if best > before - _HOPELESS else 0
+    for _ in range(iterations):
+        improved = False
+        nx, ny = bx, by
+        for d in range(8):
+            x, y = bx + step * _DX[d], by + step * _DY[d]
+            w = _merged_worst(xy, mover, count, x, y, best)
+            if w > best:
+                best, nx, ny, improved = w, x, y, True
+        if improved:
+            bx, by = nx, ny
+        else:
+            step *= 0.5
+    return before, best, bx, by
 
 
 @nb.njit(cache=True)
