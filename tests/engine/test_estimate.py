@@ -313,33 +313,33 @@ def test_the_point_in_region_kernels_agree_with_geos(case: tuple[Region, float],
     np.testing.assert_allclose(shares, grid.reshape(-1, 16).mean(axis=1))
 
 
-def test_a_size_whose_area_alone_is_over_the_cap_is_refused_before_the_field(
-    monkeypatch: pytest.MonkeyPatch,
-) -> None:
-    # The size field's cost grows with the boundary's length over the size: at 1e-9 on the unit
-    # square it once asked for 60 GiB of gap samples before the triangle estimate could refuse.
+@pytest.fixture
+def no_size_field(monkeypatch: pytest.MonkeyPatch) -> None:
+    """mesh_region fails the test if it builds a size field."""
     import engine.pipeline
 
     def unreachable(*args: object, **kwargs: object) -> None:
         raise AssertionError("the size field was built")
 
     monkeypatch.setattr(engine.pipeline, "build_size_field", unreachable)
+
+
+@pytest.mark.usefixtures("no_size_field")
+def test_a_size_whose_area_alone_is_over_the_cap_is_refused_before_the_field() -> None:
+    # The size field's cost grows with the boundary's length over the size: at 1e-9 on the unit
+    # square it once asked for 60 GiB of gap samples before the triangle estimate could refuse.
     square = make_region([([[0, 0], [1, 0], [1, 1], [0, 1]], [])])
     with pytest.raises(LimitExceeded, match="at least") as info:
         mesh_region(square, SizingParams(size=1e-9), max_triangles=1_000_000)
     assert info.value.estimate > 10**18
 
 
-def test_a_refinement_polygon_whose_area_alone_is_over_the_cap_is_refused_before_the_field(
-    monkeypatch: pytest.MonkeyPatch,
-) -> None:
-    import engine.pipeline
+@pytest.mark.usefixtures("no_size_field")
+def test_a_refinement_polygon_whose_area_alone_is_over_the_cap_is_refused_before_the_field() -> (
+    None
+):
     from engine.refinement import Refinement
 
-    def unreachable(*args: object, **kwargs: object) -> None:
-        raise AssertionError("the size field was built")
-
-    monkeypatch.setattr(engine.pipeline, "build_size_field", unreachable)
     square = make_region([([[0, 0], [1, 0], [1, 1], [0, 1]], [])])
     # Half of it lies outside the region: only the inside counts (0.25 at 1e-3: 575,000).
     box = {"type": "Polygon", "coordinates": [[[0.5, 0], [1.5, 0], [1.5, 0.5], [0.5, 0.5]]]}

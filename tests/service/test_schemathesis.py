@@ -7,9 +7,7 @@ small limits so generated jobs stay tiny; examples per operation are bounded.
 
 from __future__ import annotations
 
-import socket
 import tempfile
-import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -17,13 +15,13 @@ from pathlib import Path
 import httpx
 import pytest
 import schemathesis
-import uvicorn
 from hypothesis import HealthCheck, settings
 from schemathesis import checks
 
 from service.app import create_app
 
 from .conftest import make_settings
+from .live import serving
 
 CHECKS = [
     checks.not_a_server_error,
@@ -51,33 +49,15 @@ def _app(data_dir: Path):  # type: ignore[no-untyped-def]
 schema = schemathesis.openapi.from_dict(_app(Path(tempfile.gettempdir())).openapi())
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
 @pytest.fixture(scope="module")
 def base_url(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
-    port = _free_port()
-    app = _app(tmp_path_factory.mktemp("schemathesis"))
-    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=port, log_level="error"))
-    thread = threading.Thread(target=server.run, daemon=True)
-    thread.start()
-    deadline = time.monotonic() + 30
-    while not server.started:
-        assert thread.is_alive(), "the server did not start"
-        assert time.monotonic() < deadline, "the server did not start in 30 s"
-        time.sleep(0.02)
-    url = f"http://127.0.0.1:{port}"
-    # /ready is 503 (rightly) until the workers have warmed up: test the service once it is.
-    deadline = time.monotonic() + 180
-    while httpx.get(f"{url}/ready").status_code != 200:
-        assert time.monotonic() < deadline, "the workers did not warm up in 180 s"
-        time.sleep(0.1)
-    yield url
-    server.should_exit = True
-    thread.join(30)
+    with serving(_app(tmp_path_factory.mktemp("schemathesis"))) as url:
+        # /ready is 503 (rightly) until the workers have warmed up: test the service once it is.
+        deadline = time.monotonic() + 180
+        while httpx.get(f"{url}/ready").status_code != 200:
+            assert time.monotonic() < deadline, "the workers did not warm up in 180 s"
+            time.sleep(0.1)
+        yield url
 
 
 @schema.parametrize()
