@@ -284,8 +284,8 @@ def validate_mesh(points: ArrayLike, triangles: ArrayLike, *, area_tol: float = 
         )
     # Two triangles sharing an edge must traverse it in opposite directions.
     directed = np.stack([tri[:, [1, 2]], tri[:, [2, 0]], tri[:, [0, 1]]], axis=1).reshape(-1, 2)
-    _, dcount = np.unique(directed, axis=0, return_counts=True)
-    if np.any(dcount > 1):
+    key = np.sort(directed[:, 0] * len(pts) + directed[:, 1])  # one int per directed edge
+    if np.any(key[1:] == key[:-1]):
         raise InvalidMesh("two triangles traverse the same edge in the same direction")
     mesh = Mesh(pts, tri)
     _check_no_fold(mesh)
@@ -301,7 +301,7 @@ def _check_no_fold(mesh: Mesh) -> None:
         a, b, c = p[t[:, k]], p[t[:, (k + 1) % 3]], p[t[:, (k + 2) % 3]]
         u, v = b - a, c - a
         ang = np.arctan2(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0], (u * v).sum(axis=1))
-        np.add.at(angle_sum, t[:, k], ang)
+        angle_sum += np.bincount(t[:, k], weights=ang, minlength=mesh.n_points)
     interior = ~mesh.boundary_nodes
     folded = np.flatnonzero(interior & (np.abs(angle_sum - 2 * np.pi) > 1e-6))
     if folded.size:
