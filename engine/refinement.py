@@ -109,7 +109,8 @@ def _chords(geom: shapely.Geometry, step: float) -> tuple[FloatArray, FloatArray
             estimate=n,
         )
     y = y0 + step * np.arange(n)
-    ends = np.stack([np.c_[np.full(n, x0 - 1.0), y], np.c_[np.full(n, x1 + 1.0), y]], axis=1)
+    pad = x1 - x0  # the lines reach past the polygon at any scale
+    ends = np.stack([np.c_[np.full(n, x0 - pad), y], np.c_[np.full(n, x1 + pad), y]], axis=1)
     pieces = shapely.get_parts(shapely.intersection(shapely.linestrings(ends), geom))
     xy, index = shapely.get_coordinates(pieces, return_index=True)
     same = index[1:] == index[:-1]  # consecutive points of one piece (a lone point: a tangent)

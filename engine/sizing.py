@@ -282,7 +282,7 @@ def build_size_field(
         raise Cancelled("stopped while sizing")
     ga, gb, g0, g1, samples = _gap_features(region, vertex_field, should_stop)
     progress("sizing", 0.8)
-    # Refinements are features too (segments, and points inside polygons), each at its own rate.
+    # Refinements are segment features too (lines, polygon edges and chords), each at its rate.
     ra, rb, rh, rslope = refinement_features(params.refinements, params.growth)
     if len(g0) == 0 and len(rh) == 0 and size_min == 0.0:
         progress("sizing", 1.0)

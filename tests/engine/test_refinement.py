@@ -160,3 +160,13 @@ def test_a_polygon_is_its_edges_and_chords_s_over_two_apart() -> None:
     assert field.feature_h.size <= 0.4 / (s / 2) + 10
     inside = np.random.default_rng(1).uniform([0.2, 0.2], [0.8, 0.6], (5000, 2))
     assert np.all(field(inside) <= 1.05 * s * (1 + (growth - 1) / 4))
+
+
+def test_a_polygon_with_a_hole_refines_around_the_hole_only() -> None:
+    # Chords stop at the hole: its middle, 0.3 from any edge, grows away from s.
+    ring = [[0.2, 0.2], [1.8, 0.2], [1.8, 1.8], [0.2, 1.8], [0.2, 0.2]]
+    hole = [[0.7, 0.7], [0.7, 1.3], [1.3, 1.3], [1.3, 0.7], [0.7, 0.7]]
+    s, growth = 0.01, 1.2
+    field = _field(Refinement({"type": "Polygon", "coordinates": [ring, hole]}, s), growth=growth)
+    assert field(np.array([[1.0, 1.0]]))[0] > 0.99 * (s + (growth - 1) * 0.3)
+    assert field(np.array([[0.45, 1.0]]))[0] <= 1.05 * s * (1 + (growth - 1) / 4)
