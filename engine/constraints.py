@@ -287,10 +287,17 @@ def _check_spacing(pts: FloatArray, which: IntArray, rings: shapely.Geometry, h:
     pair = _close_pair(pts, near)
     if pair is not None:
         k = pair[1]
+        at = f"({pts[k, 0]:.6g}, {pts[k, 1]:.6g})"
+        if which[pair[0]] == which[k]:  # a line's own vertices (or crossings) too close
+            message = (
+                f"constraint {which[k]} has points closer than {near:.3g} (5% of the size there)"
+                f" at {at}: simplify it, or resample it to the size (`resample: true`, CLI "
+                "--resample)"
+            )
+        else:
+            message = f"constraint {which[k]} nearly touches another at {at}"
         raise InvalidConstraint(
-            f"constraint {which[k]} nearly touches another at ({pts[k, 0]:.6g}, {pts[k, 1]:.6g})",
-            index=int(which[k]),
-            location=(float(pts[k, 0]), float(pts[k, 1])),
+            message, index=int(which[k]), location=(float(pts[k, 0]), float(pts[k, 1]))
         )
     # The nearest ring segment of each point (the distance to the rings as one geometry is
     # O(points x ring vertices)).
