@@ -28,7 +28,7 @@ from .estimate import estimate_triangles
 from .fitness import FITNESS, node_fitness
 from .mesh import Mesh, validate_mesh
 from .params import PipelineParams, SizingParams, SmoothingParams
-from .pipeline import assess_mesh, mesh_region, mesh_then_smooth, smooth_mesh, warmup
+from .pipeline import assess_mesh, mesh_region, mesh_then_smooth, smooth_mesh
 from .quality import METRICS, Metric, TriangleQuality, register_metric, summarize, triangle_quality
 from .refinement import Refinement
 from .resample import Resampled, resample_region
@@ -36,6 +36,7 @@ from .result import ProgressFn, Result, SmoothOutcome, Snapshot, StopFn, SweepSt
 from .smoothing import SMOOTHERS
 from .subdomains import Subdomains, mesh_subdomains
 from .tags import MeshTags, Tagging, TagRun, tag_mesh
+from .warm import warmup
 
 __all__ = [
     "FITNESS",

@@ -27,6 +27,7 @@ from dataclasses import dataclass, field, replace
 from functools import cached_property
 from typing import Any
 
+import numba as nb
 import numpy as np
 import shapely
 import shapely.geometry
@@ -34,7 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .boundary import Region
 from .errors import Cancelled, EngineError, MeshingError
-from .mesh import Mesh, edge_table
+from .mesh import Mesh
 from .params import PipelineParams
 from .pipeline import improve_mesh, mesh_region
 from .resample import Resampled, resample_constraints
@@ -366,6 +367,43 @@ def _close_pair(pts: FloatArray, near: float) -> tuple[int, int] | None:
     return int(lo[k]), int(hi[k])
 
 
+@nb.njit(cache=True)
+def _holding(tris: IntArray, u: int, v: int) -> IntArray:  # pragma: no cover - compiled
+    """The rows of ``tris`` holding both ``u`` and ``v`` (one node when they are equal), in
+    order: one pass, where the whole-array comparisons took two temporaries per call."""
+    out = np.empty(len(tris), dtype=np.int64)
+    count = 0
+    for t in range(len(tris)):
+        a, b, c = tris[t, 0], tris[t, 1], tris[t, 2]
+        if (a == u or b == u or c == u) and (a == v or b == v or c == v):
+            out[count] = t
+            count += 1
+    return out[:count]
+
+
+@nb.njit(cache=True)
+def _boxes_meeting(
+    pts: FloatArray, tris: IntArray, lo: FloatArray, hi: FloatArray
+) -> BoolArray:  # pragma: no cover - compiled
+    """Which triangles' bounding boxes meet the box from ``lo`` to ``hi``."""
+    out = np.zeros(len(tris), dtype=np.bool_)
+    for t in range(len(tris)):
+        x0, y0, x1, y1 = np.inf, np.inf, -np.inf, -np.inf
+        for k in range(3):
+            x, y = pts[tris[t, k], 0], pts[tris[t, k], 1]
+            x0, y0, x1, y1 = min(x0, x), min(y0, y), max(x1, x), max(y1, y)
+        out[t] = x0 <= hi[0] and y0 <= hi[1] and x1 >= lo[0] and y1 >= lo[1]
+    return out
+
+
+def _on_boundary(around: IntArray, n: int) -> bool:
+    """Whether node ``n``, whose triangles are ``around``, lies on the boundary: a neighbour it
+    shares with only one of them."""
+    others = around[around != n]
+    _, count = np.unique(others, return_counts=True)
+    return bool(np.any(count == 1))
+
+
 def _barycentric(pts: FloatArray, tris: IntArray, q: FloatArray) -> FloatArray:
     a, b, c = pts[tris[:, 0]], pts[tris[:, 1]], pts[tris[:, 2]]
     det = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
@@ -396,12 +434,14 @@ class _Repair:
         if d[n] <= 1e-9 * self.h:
             self.pinned[n] = True
             return n
-        boundary = Mesh(self.pts, self.tris).boundary_nodes
-        order = np.argsort(d)[:4]
+        near = np.argpartition(d, 4)[:4] if len(d) > 4 else np.arange(len(d))
+        order = near[np.argsort(d[near], kind="stable")]
         for n in order.tolist():
-            if d[n] > 0.45 * self.h or boundary[n] or self.pinned[n] or self.held[n]:
+            if d[n] > 0.45 * self.h or self.pinned[n] or self.held[n]:
                 continue
-            around = np.flatnonzero((self.tris == n).any(axis=1))
+            around = _holding(self.tris, n, n)
+            if _on_boundary(self.tris[around], n):
+                continue
             moved = self.pts.copy()
             moved[n] = q
             before = _area(self.pts, self.tris[around])
@@ -412,24 +452,29 @@ class _Repair:
         return self._insert(q)
 
     def _insert(self, q: FloatArray) -> int:
-        lam = _barycentric(self.pts, self.tris, q)
+        # Only triangles whose boxes (padded past the tolerance below) hold q can hold it: the
+        # same first one, in order, as a search of every triangle.
+        pad = 1e-6 * max(self.h, float(np.abs(q).max()) * 1e-9)
+        box = np.flatnonzero(_boxes_meeting(self.pts, self.tris, q - pad, q + pad))
+        lam = _barycentric(self.pts, self.tris[box], q)
         inside = np.flatnonzero((lam >= -1e-12).all(axis=1))
         if not inside.size:
             raise MeshingError(f"no triangle holds ({q[0]:.6g}, {q[1]:.6g})")
-        t = int(inside[0])
+        t = int(box[inside[0]])
+        lam_t = lam[inside[0]]
         n = len(self.pts)
         self.pts = np.vstack([self.pts, q])
         self.pinned = np.append(self.pinned, True)
         self.held = np.append(self.held, False)
         i, j, k = self.tris[t].tolist()
-        small = np.flatnonzero(np.abs(lam[t]) < 1e-9)
+        small = np.flatnonzero(np.abs(lam_t) < 1e-9)
         if small.size:  # on the side opposite that corner: split it and its neighbour
             corner = int(small[0])
             u, v, w = np.roll(self.tris[t], -corner).tolist()  # side v-w, opposite u
             keep = [x for x in range(len(self.tris)) if x != t]
             new = [[u, v, n], [u, n, w]]
             labels = [self.label[t]] * 2
-            other = np.flatnonzero(((self.tris == v).any(axis=1)) & ((self.tris == w).any(axis=1)))
+            other = _holding(self.tris, v, w)
             other = other[other != t]
             if other.size:
                 o = int(other[0])
@@ -449,10 +494,9 @@ class _Repair:
     def recover(self, a: int, b: int) -> list[tuple[int, int]]:
         """Make ``a-b`` a chain of mesh edges by flipping; the edges of the chain."""
         for _ in range(10_000):
-            edges, _, _ = edge_table(self.tris)
-            lo, hi = min(a, b), max(a, b)
-            if np.any((edges[:, 0] == lo) & (edges[:, 1] == hi)):
+            if _holding(self.tris, a, b).size:
                 return [(a, b)]
+            edges = self._edges_near(a, b)
             pa, pb = self.pts[a], self.pts[b]
             # A node on the open segment splits it.
             d = pb - pa
@@ -468,6 +512,15 @@ class _Repair:
                 raise MeshingError(f"cannot recover the constraint edge from node {a} to {b}")
         raise MeshingError(f"cannot recover the constraint edge from node {a} to {b}")
 
+    def _edges_near(self, a: int, b: int) -> IntArray:
+        """The edges (sorted pairs, in order) of the triangles whose bounding boxes meet the
+        segment a-b's: every edge that can cross it, without the whole mesh's edge table."""
+        lo = np.minimum(self.pts[a], self.pts[b])
+        hi = np.maximum(self.pts[a], self.pts[b])
+        tri = self.tris[_boxes_meeting(self.pts, self.tris, lo, hi)]
+        sides = np.concatenate([tri[:, [1, 2]], tri[:, [2, 0]], tri[:, [0, 1]]])
+        return np.unique(np.sort(sides, axis=1), axis=0)
+
     def _crossing(self, edges: IntArray, a: int, b: int) -> IntArray:
         p, pa, pb = self.pts, self.pts[a], self.pts[b]
 
@@ -482,7 +535,7 @@ class _Repair:
         return edges[hit]
 
     def _flip(self, u: int, v: int) -> bool:
-        both = np.flatnonzero((self.tris == u).any(axis=1) & (self.tris == v).any(axis=1))
+        both = _holding(self.tris, u, v)
         if len(both) != 2:
             return False
         t1, t2 = (int(x) for x in both)

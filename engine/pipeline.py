@@ -17,7 +17,7 @@ from .errors import Cancelled, LimitExceeded
 from .estimate import estimate_triangles, refuse_by_area
 from .fitness import node_fitness
 from .front import advance_front
-from .mesh import Mesh, keeps_boundary, validate_mesh
+from .mesh import Mesh, keeps_boundary
 from .params import PipelineParams, SizingParams, SmoothingParams
 from .quality import shape_quality, summarize, triangle_quality
 from .relax import relax, relax_mean
@@ -34,13 +34,11 @@ __all__ = [
     "STAGE_WORDS",
     "SUBSTAGES",
     "assess_mesh",
-    "compiled_kernels",
     "improve_mesh",
     "job_progress",
     "mesh_region",
     "mesh_then_smooth",
     "smooth_mesh",
-    "warmup",
 ]
 
 
@@ -365,49 +363,3 @@ def smooth_mesh(
     return improve_mesh(
         mesh, smoothing, swap, rng, progress, should_stop, timings, parameters, started
     )
-
-
-def compiled_kernels() -> dict[str, int]:
-    """Every numba kernel of the engine (``"engine.module.name"``) and how many compiled
-    signatures it holds in this process (kernels inlined into others hold none)."""
-    import importlib
-    import pkgutil
-
-    from numba.core.registry import CPUDispatcher
-
-    package = importlib.import_module(__name__.rpartition(".")[0])
-    out: dict[str, int] = {}
-    for info in pkgutil.walk_packages(package.__path__, f"{package.__name__}."):
-        module = importlib.import_module(info.name)
-        for name, obj in vars(module).items():
-            if isinstance(obj, CPUDispatcher) and obj.py_func.__module__ == module.__name__:
-                out[f"{module.__name__}.{name}"] = len(obj.signatures)
-    return out
-
-
-def warmup() -> tuple[str, ...]:
-    """Run every stage and every smoother once on a tiny region so that numba compiles (or
-    loads from its cache) each kernel a job calls; returns the names of the engine's kernels
-    now compiled (see :func:`compiled_kernels`).
-
-    The GA runs with ``selection="all"``: the tiny mesh has no poor triangle, and with the
-    default selection the GA's kernels would be left for the first job to compile. A 37-degree
-    spike whose legs end at input vertices at unequal distances is meshed too: its corner gets
-    an interior node and nodes on its sides (:mod:`engine.spanning`, :mod:`engine.sides`); its
-    mesh is validated as a smooth job's input is.
-    """
-    from .boundary import make_region
-
-    region = make_region(
-        [([[0, 0], [1, 0], [1, 1], [0, 1]], [[[0.4, 0.4], [0.6, 0.4], [0.5, 0.6]]])]
-    )
-    for method in SMOOTHERS:
-        smoothing = SmoothingParams(
-            method=method, population=8, generations=2, max_sweeps=1, selection="all"
-        )
-        mesh_then_smooth(region, PipelineParams(SizingParams(0.2), smoothing=smoothing))
-    spike = [[0.0, 0.0], [0.23, -0.077], [0.23, -0.5], [1.0, -0.5], [1.0, 0.5]]
-    spike += [[0.265, 0.5], [0.265, 0.089]]
-    mesh, _ = mesh_region(make_region([(spike, [])]), SizingParams(0.2))
-    validate_mesh(mesh.points, mesh.triangles)  # what a smooth or quality job checks first
-    return tuple(sorted(name for name, count in compiled_kernels().items() if count))
