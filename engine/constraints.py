@@ -89,19 +89,9 @@ class PinnedMesh(Mesh):
 
 def split_segment(a: FloatArray, b: FloatArray, fields: Sequence[SizeField]) -> FloatArray:
     """Points splitting ``a -> b`` into ``ceil(integral of ds / h)`` equal pieces of that
-    integral, ``h`` the smaller of ``fields``."""
-    length = float(np.hypot(*(b - a)))
-    m = 64
-    for _ in range(2):  # sample, then resample at a quarter of the smallest size found
-        t = np.linspace(0.0, 1.0, m)
-        xy = a + t[:, None] * (b - a)
-        h = np.min([f(xy) for f in fields], axis=0)
-        m = int(min(max(64, math.ceil(4 * length / h.min())), 4_000_000))
-    inv = 1.0 / h
-    cum = np.concatenate([[0.0], np.cumsum(0.5 * (inv[1:] + inv[:-1]) * np.diff(t) * length)])
-    n = max(math.ceil(cum[-1] - 1e-9), 1)
-    ts = np.interp(cum[-1] * np.arange(1, n) / n, cum, t)
-    return a + ts[:, None] * (b - a)
+    integral, ``h`` the smaller of ``fields`` (sampled at 64 points, then again at a quarter of
+    the smallest size found)."""
+    return split_segments(np.asarray(a)[None], np.asarray(b)[None], fields)[0]
 
 
 def split_segments(a: FloatArray, b: FloatArray, fields: Sequence[SizeField]) -> list[FloatArray]:
