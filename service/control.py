@@ -456,12 +456,29 @@ def subdomains_of(
 def estimate_subdomains(
     parsed: ParsedRegion, sizes: list[float | None], sizing: engine.SizingParams, cap: int, at: str
 ) -> int:
-    """The triangles the subdomains expect, each part at its own size (the job's when none)."""
+    """The triangles the subdomains expect, each part at its own size (the job's when none); a
+    refusal names the polygon, and points at its own ``h`` when it has one."""
     total = 0
-    for part, h in zip(parsed.region.parts, sizes, strict=True):
+    for k, (part, h) in enumerate(zip(parsed.region.parts, sizes, strict=True)):
         own = replace(sizing, size=h or sizing.size)
-        total += estimate_or_refuse(engine.Region((part,)), own, max(1, cap - total), at)
+        where = _own_size_pointer(parsed.ring_pointers[k][0]) if h else at
+        try:
+            total += estimate_or_refuse(engine.Region((part,)), own, max(1, cap - total), where)
+        except InputRefused as exc:
+            raise InputRefused(
+                f"polygon {k}: {exc.detail}", kind=exc.kind, title=exc.title, pointer=exc.pointer
+            ) from None
     return total
+
+
+def _own_size_pointer(ring: str) -> str:
+    """The pointer of the ``properties.h`` that sized the polygon whose first ring is at
+    ``ring``: its Feature's (in a FeatureCollection, or the Feature of a MultiPolygon).
+
+    >>> _own_size_pointer("/inputs/boundary/features/2/geometry/coordinates/0")
+    '/inputs/boundary/features/2/properties/h'
+    """
+    return ring.split("/geometry/")[0] + "/properties/h"
 
 
 def job_region(payload: dict[str, Any]) -> tuple[engine.Region, dict[str, Any] | None]:

@@ -317,6 +317,24 @@ async def test_polygons_sharing_an_edge_are_meshed_as_subdomains(client: httpx.A
     assert np.allclose(pts[shared][..., 0], 1.0)
 
 
+async def test_a_subdomain_whose_own_size_is_too_fine_is_a_422_at_its_h(
+    client: httpx.AsyncClient,
+) -> None:
+    doc = assert_problem(
+        await _execute(client, {"boundary": _pair(1e-9), "size": 0.25, "smoothing": NONE}),
+        422,
+        "limit-exceeded",
+        "/inputs/boundary/features/1/properties/h",
+    )
+    assert doc["detail"].startswith("polygon 1: ")
+    # The job's own size too fine (it sizes the polygon without an h): at /inputs/size.
+    assert_problem(
+        await _execute(client, {"boundary": _pair(None), "size": 1e-9, "smoothing": NONE}),
+        422,
+        pointer="/inputs/size",
+    )
+
+
 async def test_overlapping_polygons_stay_a_located_422(client: httpx.AsyncClient) -> None:
     r = await _execute(
         client, {"boundary": _pair(None, shift=0.5), "size": 0.25, "smoothing": NONE}
