@@ -123,8 +123,8 @@ def test_warmup_compiles_every_kernel_a_job_calls() -> None:
     # A smooth or quality job's input check: its pieces (engine.mesh._union_find) included.
     validate_mesh(result.smoothed.mesh.points, result.smoothed.mesh.triangles)
     assert "engine.mesh._union_find" in compiled
-    # A job with constraints: its local searches (engine.constraints._holding, ...) included.
+    # A job with constraints: its local searches (engine.repair._holding, ...) included.
     line = {"type": "LineString", "coordinates": [[0.2, 0.3], [1.7, 0.4]]}
     engine.mesh_with_constraints(region, engine.PipelineParams(engine.SizingParams(0.15)), [line])
-    assert "engine.constraints._holding" in compiled
+    assert "engine.repair._holding" in compiled
     assert compiled_kernels() == counts
