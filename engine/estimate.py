@@ -477,12 +477,13 @@ def refuse_by_area(region: Region, sizing: SizingParams, cap: int) -> None:
     size = sizing.size if sizing.size_max is None else min(sizing.size, sizing.size_max)
     low = _area_low(region, max(size, sizing.size_min or 0.0))
     what = f"the region's area at the size {size:g}"
-    shape = region.to_shapely() if any(r.shape().area > 0 for r in sizing.refinements) else None
-    for i, r in enumerate(sizing.refinements):  # a refinement polygon's area at its size, alone
-        if shape is not None and r.shape().area > 0:
-            inside = float(shapely.intersection(r.shape(), shape).area)
-            if (own := _WEIGHTS.min() * inside / (EQUILATERAL_AREA * r.size * r.size)) > low:
-                low, what = own, f"refinement {i}'s area at its size {r.size:g}"
+    # A refinement polygon's area inside the region at its size, alone.
+    areas = [(i, r, g) for i, r in enumerate(sizing.refinements) if (g := r.shape()).area > 0]
+    shape = region.to_shapely() if areas else None
+    for i, r, geom in areas:
+        inside = float(shapely.intersection(geom, shape).area)
+        if (own := _WEIGHTS.min() * inside / (EQUILATERAL_AREA * r.size * r.size)) > low:
+            low, what = own, f"refinement {i}'s area at its size {r.size:g}"
     if low > cap:
         least = math.ceil(low)
         raise LimitExceeded(
