@@ -220,17 +220,22 @@ def checked_refinements(
         except InvalidRefinement as exc:
             raise InputRefused(str(exc), kind="invalid-input", pointer=f"{at}/{i}") from None
         vertices += int(shapely.get_num_coordinates(shape))
-        if vertices > limit:
-            raise InputRefused(
-                f"the boundary's and the refinements' vertices are over the limit of {limit:,}",
-                kind="limit-exceeded",
-                title="Input over a limit",
-                pointer=f"{at}/{i}",
-            )
+        _check_vertices(vertices, limit, "the boundary's and the refinements'", f"{at}/{i}")
         # Stored as shapely writes it back: plain GeoJSON, never the client's members.
         kept = {"geometry": orjson.loads(orjson.dumps(mapping(shape))), "size": r.size}
         out.append(kept if r.growth is None else {**kept, "growth": r.growth})
     return out
+
+
+def _check_vertices(count: int, limit: int | None, what: str, pointer: str) -> None:
+    """A 422 at ``pointer`` when ``count`` (``what`` vertices) is over ``limit`` (None: none)."""
+    if limit is not None and count > limit:
+        raise InputRefused(
+            f"{what} vertices are over the limit of {limit:,}",
+            kind="limit-exceeded",
+            title="Input over a limit",
+            pointer=pointer,
+        )
 
 
 def refinement_vertices(refinements: Sequence[Mapping[str, Any]]) -> int:
@@ -289,14 +294,8 @@ def checked_constraints(
             plane.append(g)  # not a geometry: the engine's check below names it
             continue
         vertices += int(shapely.get_num_coordinates(shape))
-        if limit is not None and vertices > limit:
-            raise InputRefused(
-                f"the boundary's, the refinements' and the constraints' vertices are over the "
-                f"limit of {limit:,}",
-                kind="limit-exceeded",
-                title="Input over a limit",
-                pointer=ptr,
-            )
+        what = "the boundary's, the refinements' and the constraints'"
+        _check_vertices(vertices, limit, what, ptr)
         if projection is not None and projection.geographic:
             # A lon/lat position on a ring's edge lands off its chord in the plane by a
             # fraction of a metre: put it on the ring, as it was in the input.
